@@ -1,0 +1,2 @@
+//! Verlet particle physics for Bevy.
+pub mod solver;

@@ -1,0 +1,55 @@
+//! Verlet integration (Jakobsen 2001, §"Verlet integration").
+//!
+//! `x' = x + (x − x*)·d + a·h²`, then `x* = x`. The damping factor `d = exp(−c·h)` is the exact
+//! solution of `v' = −c·v` over one substep, so the damping rate `c` (1/s) means the same thing at
+//! every substep count and frame rate (the seeds' per-step `0.99` does not). Gravity is not
+//! multiplied by ½ (the Tuts+ seed's `½·a·dt²` in a position-Verlet recurrence halves gravity).
+//!
+//! Immovable particles (`inverse_mass == 0`) do not move here; kinematic ones are placed on their
+//! pin targets by [`Pins::drive`](super::Pins::drive) right after.
+
+use super::Particles;
+use glam::DVec3;
+
+/// Advances every movable particle by one substep of length `h` under `gravity`, with the
+/// per-substep velocity factor `damping_factor` (`1.0` = no damping).
+///
+/// ```
+/// use bevy_verlet_physics::solver::{integrate, Particles};
+/// use glam::DVec3;
+/// let mut p = Particles::default();
+/// p.push(DVec3::ZERO, DVec3::ZERO, 1.0, 0.0, 0);
+/// integrate(&mut p, DVec3::new(0.0, -10.0, 0.0), 0.1, 1.0);
+/// assert!((p.position[0].y + 0.1).abs() < 1e-12); // a·h² = −10 · 0.01
+/// ```
+pub fn integrate(particles: &mut Particles, gravity: DVec3, h: f64, damping_factor: f64) {
+    let step = gravity * (h * h);
+    let Particles {
+        position,
+        previous,
+        inverse_mass,
+        ..
+    } = particles;
+    for ((x, x_prev), &w) in position.iter_mut().zip(previous.iter_mut()).zip(inverse_mass.iter()) {
+        let current = *x;
+        if w > 0.0 {
+            *x = current + (current - *x_prev) * damping_factor + step;
+        }
+        *x_prev = current;
+    }
+}
+
+/// The previous position that makes a particle at `position` with instantaneous velocity
+/// `velocity` follow the exact constant-acceleration curve `x₀ + v₀t + ½at²` under Verlet with
+/// substep `h` (Dummer 2005: `x₋₁ = x₀ − v₀h + ½ah²`). The seeds' `x₋₁ = x₀` instead lags the exact
+/// curve by half a step of velocity.
+///
+/// ```
+/// use bevy_verlet_physics::solver::consistent_previous;
+/// use glam::DVec3;
+/// let prev = consistent_previous(DVec3::ZERO, DVec3::ZERO, DVec3::new(0.0, -10.0, 0.0), 0.1);
+/// assert!((prev.y + 0.05).abs() < 1e-12);
+/// ```
+pub fn consistent_previous(position: DVec3, velocity: DVec3, acceleration: DVec3, h: f64) -> DVec3 {
+    position - velocity * h + acceleration * (0.5 * h * h)
+}

@@ -1,0 +1,196 @@
+//! Distance constraints ("sticks") solved with XPBD (Macklin, Müller, Chentanez 2016).
+//!
+//! For a stick between particles `a` and `b` with rest length `L`, the constraint is
+//! `C = |x_a − x_b| − L`. One projection computes, with `W = w_a + w_b` and `α̃ = α/h²`,
+//!
+//! ```text
+//! Δλ = (−C − α̃·λ) / (W + α̃),   x_a += w_a·n·Δλ,   x_b −= w_b·n·Δλ,   λ += Δλ
+//! ```
+//!
+//! where `n` is the unit vector from `b` to `a`. With compliance `α = 0` this is Jakobsen's
+//! mass-weighted stick (full projection); with `α > 0` the stick is a spring of stiffness `1/α`
+//! whose stiffness does not change with the iteration count or the timestep. One-sided sticks
+//! (ropes that only pull, struts that only push) clamp the accumulated `λ` to one sign.
+//! Sticks whose ends are both immovable and degenerate sticks (`|x_a − x_b| ≈ 0`, no direction)
+//! are skipped rather than divided by zero.
+
+use super::Particles;
+use glam::DVec3;
+
+/// Which way a stick acts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum StickKind {
+    /// Holds its length both ways (a rod).
+    #[default]
+    Equal,
+    /// Only pulls: active when longer than its rest length (a rope or chain link).
+    AtMost,
+    /// Only pushes: active when shorter than its rest length (a strut; the Tuts+ ragdoll's
+    /// joint-angle limits).
+    AtLeast,
+    /// Torn: ignored until the topology is rebuilt without it.
+    Torn,
+}
+
+/// Struct-of-arrays storage for distance constraints.
+///
+/// ```
+/// use bevy_verlet_physics::solver::{Sticks, StickKind};
+/// let mut sticks = Sticks::default();
+/// sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 7);
+/// assert_eq!(sticks.len(), 1);
+/// ```
+#[derive(Clone, Debug, Default)]
+pub struct Sticks {
+    /// Particle indices of the two ends.
+    pub ends: Vec<[u32; 2]>,
+    /// Rest lengths.
+    pub rest_length: Vec<f64>,
+    /// XPBD compliances (inverse stiffness; `0` = rigid).
+    pub compliance: Vec<f64>,
+    /// Direction of action.
+    pub kind: Vec<StickKind>,
+    /// Strain (`length / rest − 1`) past which the stick tears; `INFINITY` = never.
+    pub tear_strain: Vec<f64>,
+    /// Accumulated XPBD multipliers of the current substep.
+    pub lambda: Vec<f64>,
+    /// An opaque handle per stick (the Bevy layer stores `Entity::to_bits`).
+    pub handle: Vec<u64>,
+    /// Indices of the sticks with a finite tear strain (so that a scene without tearing pays
+    /// nothing for the tear pass).
+    pub tearable: Vec<u32>,
+}
+
+impl Sticks {
+    /// Number of sticks (torn ones included until the next rebuild).
+    pub fn len(&self) -> usize {
+        self.ends.len()
+    }
+
+    /// `true` when there are no sticks.
+    pub fn is_empty(&self) -> bool {
+        self.ends.is_empty()
+    }
+
+    /// Removes every stick, keeping the allocations.
+    pub fn clear(&mut self) {
+        self.ends.clear();
+        self.rest_length.clear();
+        self.compliance.clear();
+        self.kind.clear();
+        self.tear_strain.clear();
+        self.lambda.clear();
+        self.handle.clear();
+        self.tearable.clear();
+    }
+
+    /// Adds a stick and returns its index.
+    pub fn push(
+        &mut self,
+        ends: [u32; 2],
+        rest_length: f64,
+        compliance: f64,
+        kind: StickKind,
+        tear_strain: f64,
+        handle: u64,
+    ) -> u32 {
+        let index = self.ends.len() as u32;
+        self.ends.push(ends);
+        self.rest_length.push(rest_length);
+        self.compliance.push(compliance);
+        self.kind.push(kind);
+        self.tear_strain.push(tear_strain);
+        self.lambda.push(0.0);
+        self.handle.push(handle);
+        if tear_strain.is_finite() {
+            self.tearable.push(index);
+        }
+        index
+    }
+
+    /// Current strain `|x_a − x_b| / L − 1` of stick `i` (`0` for a zero rest length).
+    pub fn strain(&self, i: usize, particles: &Particles) -> f64 {
+        let [a, b] = self.ends[i];
+        let length = (particles.position[a as usize] - particles.position[b as usize]).length();
+        let rest = self.rest_length[i];
+        if rest > 0.0 { length / rest - 1.0 } else { 0.0 }
+    }
+
+    /// Largest `|strain|` over the sticks that are active (an at-most stick that is slack and an
+    /// at-least stick that is stretched count as satisfied).
+    pub fn max_violation(&self, particles: &Particles) -> f64 {
+        let mut worst: f64 = 0.0;
+        for i in 0..self.len() {
+            let strain = self.strain(i, particles);
+            let violation = match self.kind[i] {
+                StickKind::Equal => strain.abs(),
+                StickKind::AtMost => strain.max(0.0),
+                StickKind::AtLeast => (-strain).max(0.0),
+                StickKind::Torn => 0.0,
+            };
+            worst = worst.max(violation);
+        }
+        worst
+    }
+}
+
+/// Below this length a stick has no usable direction and is skipped for the iteration.
+const MIN_LENGTH: f64 = 1e-12;
+
+/// Projects every stick once (one Gauss–Seidel sweep), for a substep of length `h`.
+///
+/// `accumulate` selects full XPBD with the multipliers in [`Sticks::lambda`] (needed when a
+/// substep runs more than one iteration and compliances are non-zero); with one iteration the
+/// multipliers start at zero and are not needed.
+///
+/// ```
+/// use bevy_verlet_physics::solver::{relax_sticks, Particles, Sticks, StickKind};
+/// use glam::DVec3;
+/// let mut p = Particles::default();
+/// p.push(DVec3::ZERO, DVec3::ZERO, 1.0, 0.0, 0);
+/// p.push(DVec3::X * 2.0, DVec3::X * 2.0, 1.0, 0.0, 1);
+/// let mut s = Sticks::default();
+/// s.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+/// relax_sticks(&mut p, &mut s, 1.0 / 60.0, false);
+/// assert!((p.position[1].x - p.position[0].x - 1.0).abs() < 1e-12);
+/// ```
+pub fn relax_sticks(particles: &mut Particles, sticks: &mut Sticks, h: f64, accumulate: bool) {
+    let inv_h2 = 1.0 / (h * h);
+    let position = &mut particles.position;
+    let inverse_mass = &particles.inverse_mass;
+    for i in 0..sticks.ends.len() {
+        let kind = sticks.kind[i];
+        if kind == StickKind::Torn {
+            continue;
+        }
+        let [a, b] = sticks.ends[i];
+        let (a, b) = (a as usize, b as usize);
+        let (wa, wb) = (inverse_mass[a], inverse_mass[b]);
+        let w = wa + wb;
+        if w <= 0.0 {
+            continue;
+        }
+        let delta = position[a] - position[b];
+        let length = delta.length();
+        if length < MIN_LENGTH {
+            continue;
+        }
+        let c = length - sticks.rest_length[i];
+        let alpha = sticks.compliance[i] * inv_h2;
+        let lambda = if accumulate { sticks.lambda[i] } else { 0.0 };
+        let mut d_lambda = (-c - alpha * lambda) / (w + alpha);
+        // One-sided sticks: the total multiplier may only pull (≤ 0) or only push (≥ 0).
+        match kind {
+            StickKind::AtMost => d_lambda = d_lambda.min(-lambda),
+            StickKind::AtLeast => d_lambda = d_lambda.max(-lambda),
+            _ => {}
+        }
+        if accumulate {
+            sticks.lambda[i] = lambda + d_lambda;
+        }
+        let correction: DVec3 = delta * (d_lambda / length);
+        position[a] += correction * wa;
+        position[b] -= correction * wb;
+    }
+}

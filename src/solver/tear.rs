@@ -1,0 +1,53 @@
+//! Tearing on post-solve strain.
+//!
+//! After all substeps of a fixed step, a stick whose strain `length / rest − 1` exceeds its tear
+//! strain is marked torn. The seeds test the length *before* the correction instead, which makes
+//! tearing measure the solver's budget (a 10 % threshold tears a whole curtain on its first step
+//! at 60 Hz, because gravity alone predicts 13.6 % stretch) rather than the material.
+
+use super::{Particles, StickKind, Sticks};
+
+/// Marks every tearable stick strained past its threshold as [`StickKind::Torn`], appends its
+/// index to `torn` and drops it from [`Sticks::tearable`]. Returns how many tore.
+///
+/// ```
+/// use bevy_verlet_physics::solver::{tear, Particles, Sticks, StickKind};
+/// use glam::DVec3;
+/// let mut p = Particles::default();
+/// p.push(DVec3::ZERO, DVec3::ZERO, 1.0, 0.0, 0);
+/// p.push(DVec3::X * 3.0, DVec3::X * 3.0, 1.0, 0.0, 1);
+/// let mut s = Sticks::default();
+/// s.push([0, 1], 1.0, 0.0, StickKind::Equal, 1.5, 0); // tears past 2.5× its length
+/// let mut torn = Vec::new();
+/// assert_eq!(tear(&p, &mut s, &mut torn), 1);
+/// assert_eq!(s.kind[0], StickKind::Torn);
+/// ```
+pub fn tear(particles: &Particles, sticks: &mut Sticks, torn: &mut Vec<u32>) -> usize {
+    let before = torn.len();
+    let Sticks {
+        ends,
+        rest_length,
+        tearable,
+        kind,
+        tear_strain,
+        ..
+    } = sticks;
+    let mut i = 0;
+    while i < tearable.len() {
+        let s = tearable[i] as usize;
+        let [a, b] = ends[s];
+        let rest = rest_length[s];
+        let length = (particles.position[a as usize] - particles.position[b as usize]).length();
+        // A zero rest length has no strain: such sticks never tear.
+        let strain = if rest > 0.0 { length / rest - 1.0 } else { 0.0 };
+        // A NaN strain never tears (it is not greater than anything); inputs are sanitised upstream.
+        if kind[s] != StickKind::Torn && strain > tear_strain[s] {
+            kind[s] = StickKind::Torn;
+            torn.push(s as u32);
+            tearable.swap_remove(i);
+        } else {
+            i += 1;
+        }
+    }
+    torn.len() - before
+}
