@@ -1,2 +1,67 @@
-//! Verlet particle physics for Bevy.
+//! Verlet particle physics for Bevy: particles, sticks (distance constraints) and pins for
+//! ropes, tearable cloth, ragdolls and stick structures.
+//!
+//! Add [`VerletPlugin`], spawn [`Particle`]s, [`Stick`]s between them and [`Pin`]s — or a whole
+//! rope or cloth with one call from [`builders`] — and add [`VerletDebugPlugin`] (feature
+//! `gizmos`, on by default) to see them drawn with gizmo lines.
+//!
+//! ```
+//! use bevy::prelude::*;
+//! use bevy_verlet_physics::prelude::*;
+//!
+//! let mut app = App::new();
+//! app.add_plugins((MinimalPlugins, VerletPlugin::default()));
+//! // A 20-link rope from (0, 2) to (2, 2), pinned at its first end.
+//! let rope = RopeBuilder::new(Vec3::new(0.0, 2.0, 0.0), Vec3::new(2.0, 2.0, 0.0), 20)
+//!     .pin_start()
+//!     .spawn(&mut app.world_mut().commands());
+//! app.world_mut().flush();
+//! for _ in 0..10 {
+//!     app.update();
+//! }
+//! ```
+//!
+//! The crate is two layers: [`solver`], a Bevy-free core of dense `f64` arrays and plain
+//! functions (integrate, relax, constrain, tear), and the Bevy layer — components, the plugin,
+//! rendering and builders — which gathers component changes into the core each fixed step and
+//! scatters positions back once.
+#![warn(missing_docs)]
+
+pub mod builders;
+mod collider;
+mod config;
+#[cfg(feature = "gizmos")]
+mod debug_render;
+mod messages;
+mod particle;
+mod pin;
+mod plugin;
 pub mod solver;
+mod state;
+mod stick;
+mod systems;
+
+pub use builders::{ClothBuilder, Composite, RopeBuilder, StructureBuilder};
+pub use collider::{ColliderShape, VerletCollider};
+pub use config::{Gravity, VerletConfig, VerletStats};
+#[cfg(feature = "gizmos")]
+pub use debug_render::{DebugColor, VerletDebugConfig, VerletDebugPlugin, VerletGizmos};
+pub use messages::StickTorn;
+pub use particle::{Particle, Tethered};
+pub use pin::{Pin, PinTarget};
+pub use plugin::{VerletPlugin, VerletSubstepSystems, VerletSubsteps, VerletSystems};
+pub use solver::StickKind;
+pub use state::VerletState;
+pub use stick::{AngleConstraint, Stick, Stiffness};
+
+/// Everything a game usually needs.
+pub mod prelude {
+    pub use crate::builders::{ClothBuilder, Composite, RopeBuilder, StructureBuilder};
+    pub use crate::{
+        AngleConstraint, ColliderShape, Gravity, Particle, Pin, PinTarget, Stick, StickKind,
+        StickTorn, Stiffness, Tethered, VerletCollider, VerletConfig, VerletPlugin, VerletState,
+        VerletStats, VerletSubstepSystems, VerletSubsteps, VerletSystems,
+    };
+    #[cfg(feature = "gizmos")]
+    pub use crate::{DebugColor, VerletDebugConfig, VerletDebugPlugin, VerletGizmos};
+}

@@ -63,7 +63,13 @@ impl Angles {
     }
 
     /// Adds an angle constraint and returns its index.
-    pub fn push(&mut self, particles: [u32; 3], rest_angle: f64, compliance: f64, axis: Option<DVec3>) -> usize {
+    pub fn push(
+        &mut self,
+        particles: [u32; 3],
+        rest_angle: f64,
+        compliance: f64,
+        axis: Option<DVec3>,
+    ) -> usize {
         self.particles.push(particles);
         self.rest_angle.push(rest_angle);
         self.compliance.push(compliance);
@@ -89,7 +95,10 @@ fn measure(u: DVec3, v: DVec3, axis: Option<DVec3>) -> (f64, DVec3) {
         None => {
             let normal = u.cross(v);
             let sin = normal.length();
-            (sin.atan2(u.dot(v)), if sin > 0.0 { normal / sin } else { DVec3::ZERO })
+            (
+                sin.atan2(u.dot(v)),
+                if sin > 0.0 { normal / sin } else { DVec3::ZERO },
+            )
         }
     }
 }
@@ -97,7 +106,11 @@ fn measure(u: DVec3, v: DVec3, axis: Option<DVec3>) -> (f64, DVec3) {
 /// Wraps an angle into `(−π, π]`.
 fn wrap(angle: f64) -> f64 {
     let wrapped = (angle + PI).rem_euclid(TAU) - PI;
-    if wrapped <= -PI { wrapped + TAU } else { wrapped }
+    if wrapped <= -PI {
+        wrapped + TAU
+    } else {
+        wrapped
+    }
 }
 
 /// Projects every angle constraint once (one Gauss–Seidel sweep) for a substep of length `h`.
@@ -106,7 +119,11 @@ pub fn relax_angles(particles: &mut Particles, angles: &mut Angles, h: f64, accu
     for i in 0..angles.len() {
         let [a, b, c] = angles.particles[i];
         let (a, b, c) = (a as usize, b as usize, c as usize);
-        let w = [particles.inverse_mass[a], particles.inverse_mass[b], particles.inverse_mass[c]];
+        let w = [
+            particles.inverse_mass[a],
+            particles.inverse_mass[b],
+            particles.inverse_mass[c],
+        ];
         let p = &mut particles.position;
         let axis = angles.axis[i];
         // Arms projected into the plane of the signed angle.

@@ -65,7 +65,11 @@ fn contact(shape: &Shape, x: DVec3, radius: f64) -> Option<(DVec3, f64)> {
                 return None;
             }
             // A particle exactly at the centre is pushed out along +Y (any fixed axis works).
-            let normal = if distance > 1e-12 { delta / distance } else { DVec3::Y };
+            let normal = if distance > 1e-12 {
+                delta / distance
+            } else {
+                DVec3::Y
+            };
             Some((normal, depth))
         }
         Shape::Inside { .. } => None,

@@ -30,7 +30,11 @@ pub fn integrate(particles: &mut Particles, gravity: DVec3, h: f64, damping_fact
         inverse_mass,
         ..
     } = particles;
-    for ((x, x_prev), &w) in position.iter_mut().zip(previous.iter_mut()).zip(inverse_mass.iter()) {
+    for ((x, x_prev), &w) in position
+        .iter_mut()
+        .zip(previous.iter_mut())
+        .zip(inverse_mass.iter())
+    {
         let current = *x;
         if w > 0.0 {
             *x = current + (current - *x_prev) * damping_factor + step;

@@ -54,14 +54,14 @@ mod sticks;
 mod tear;
 mod tethers;
 
-pub use angles::{relax_angles, Angles};
-pub use colliders::{constrain, Collider, Shape};
+pub use angles::{Angles, relax_angles};
+pub use colliders::{Collider, Shape, constrain};
 pub use integrate::{consistent_previous, integrate};
 pub use particles::Particles;
 pub use pins::Pins;
-pub use sticks::{relax_sticks, StickKind, Sticks};
+pub use sticks::{StickKind, Sticks, relax_sticks};
 pub use tear::tear;
-pub use tethers::{relax_tethers, Tethers};
+pub use tethers::{Tethers, relax_tethers};
 
 use glam::DVec3;
 
@@ -103,6 +103,40 @@ impl StepConfig {
     pub fn substep(&self) -> f64 {
         self.timestep / self.substeps.max(1) as f64
     }
+
+    /// The context of substep `index` (1-based) of this step.
+    pub fn substep_context(&self, index: u32) -> Substep {
+        let h = self.substep();
+        Substep {
+            h,
+            index,
+            count: self.substeps.max(1),
+            iterations: self.iterations.max(1),
+            gravity: self.gravity,
+            damping_factor: (-self.damping * h).exp(),
+            // Multipliers matter only when a substep iterates more than once.
+            accumulate: self.iterations > 1,
+        }
+    }
+}
+
+/// Everything one substep needs (see [`StepConfig::substep_context`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Substep {
+    /// Substep length in seconds.
+    pub h: f64,
+    /// 1-based index of this substep in the fixed step.
+    pub index: u32,
+    /// Substeps in the fixed step.
+    pub count: u32,
+    /// Relaxation iterations.
+    pub iterations: u32,
+    /// Gravity.
+    pub gravity: DVec3,
+    /// Per-substep velocity factor `exp(−c·h)`.
+    pub damping_factor: f64,
+    /// Whether XPBD multipliers accumulate across iterations.
+    pub accumulate: bool,
 }
 
 /// Everything the solver simulates, in dense arrays.
@@ -148,7 +182,8 @@ impl Solver {
     /// [`consistent_previous`].)
     pub fn add_particle(&mut self, position: DVec3, inverse_mass: f64) -> u32 {
         self.tethered.push(false);
-        self.particles.push(position, position, inverse_mass, 0.0, 0)
+        self.particles
+            .push(position, position, inverse_mass, 0.0, 0)
     }
 
     /// Pins particle `i` at `target`: it becomes kinematic (inverse mass 0) and is placed there.
@@ -170,37 +205,63 @@ impl Solver {
     /// indices are left in [`Solver::torn`]; tethers are rebuilt if anything tore.
     pub fn step(&mut self, config: &StepConfig) {
         let substeps = config.substeps.max(1);
-        let iterations = config.iterations.max(1);
-        let h = config.timestep / substeps as f64;
-        let damping_factor = (-config.damping * h).exp();
-        // Multipliers matter only when a substep iterates compliant constraints more than once.
-        let accumulate = iterations > 1;
-        let gravity_step = config.gravity.length() * h * h;
+        for index in 1..=substeps {
+            let substep = config.substep_context(index);
+            self.integrate_substep(&substep);
+            self.relax_substep(&substep);
+            self.constrain_substep(&substep);
+        }
+        self.finish_step();
+    }
+
+    /// First phase of a substep: Verlet integration, then kinematic pins placed on their
+    /// interpolated targets (and XPBD multipliers reset).
+    pub fn integrate_substep(&mut self, substep: &Substep) {
+        integrate(
+            &mut self.particles,
+            substep.gravity,
+            substep.h,
+            substep.damping_factor,
+        );
+        self.pins.drive(
+            &mut self.particles,
+            substep.index as f64 / substep.count as f64,
+        );
+        if substep.accumulate {
+            self.sticks.lambda.fill(0.0);
+            self.angles.lambda.fill(0.0);
+        }
+    }
+
+    /// Second phase of a substep: `iterations` relaxation sweeps.
+    pub fn relax_substep(&mut self, substep: &Substep) {
+        for _ in 0..substep.iterations {
+            self.relax(substep.h, substep.accumulate);
+        }
+    }
+
+    /// Third phase of a substep: colliders (skipped when there are none).
+    pub fn constrain_substep(&mut self, substep: &Substep) {
+        if !self.colliders.is_empty() {
+            let gravity_step = substep.gravity.length() * substep.h * substep.h;
+            constrain(&mut self.particles, &self.colliders, gravity_step);
+        }
+    }
+
+    /// Ends a fixed step: pins start the next step where this one left them, and overstrained
+    /// sticks tear (post-solve strain). Returns how many tore; their indices are in
+    /// [`Solver::torn`]. Tethers are rebuilt after a tear.
+    pub fn finish_step(&mut self) -> usize {
+        self.pins.from.clone_from_slice(&self.pins.to);
         self.torn.clear();
-        for s in 1..=substeps {
-            integrate(&mut self.particles, config.gravity, h, damping_factor);
-            self.pins.drive(&mut self.particles, s as f64 / substeps as f64);
-            if accumulate {
-                self.sticks.lambda.fill(0.0);
-                self.angles.lambda.fill(0.0);
-            }
-            for _ in 0..iterations {
-                self.relax(h, accumulate);
-            }
-            if !self.colliders.is_empty() {
-                constrain(&mut self.particles, &self.colliders, gravity_step);
-            }
+        if self.sticks.tearable.is_empty() {
+            return 0;
         }
-        for pin in 0..self.pins.len() {
-            // The next step starts from where this one ended.
-            self.pins.from[pin] = self.pins.to[pin];
-        }
-        if !self.sticks.tearable.is_empty()
-            && tear(&self.particles, &mut self.sticks, &mut self.torn) > 0
-            && !self.tethers.is_empty()
-        {
+        let torn = tear(&self.particles, &mut self.sticks, &mut self.torn);
+        if torn > 0 && !self.tethers.is_empty() {
             self.rebuild_tethers();
         }
+        torn
     }
 
     /// One relaxation sweep over every constraint: sticks, then angles, then tethers.

@@ -9,9 +9,14 @@ fn chain(links: usize, link: f64, compliance: f64) -> Solver {
     solver.pin(previous, DVec3::ZERO);
     for i in 1..=links {
         let p = solver.add_particle(DVec3::new(0.0, -link * i as f64, 0.0), 1.0);
-        solver
-            .sticks
-            .push([previous, p], link, compliance, StickKind::Equal, f64::INFINITY, 0);
+        solver.sticks.push(
+            [previous, p],
+            link,
+            compliance,
+            StickKind::Equal,
+            f64::INFINITY,
+            0,
+        );
         previous = p;
     }
     solver
@@ -33,7 +38,11 @@ fn stretch(solver: &Solver) -> f64 {
 fn free_fall_is_exact_with_a_consistent_start() {
     for substeps in [1, 8, 64] {
         for start in [0.0, 1000.0] {
-            let config = StepConfig { substeps, gravity: DVec3::new(0.0, -980.0, 0.0), ..StepConfig::default() };
+            let config = StepConfig {
+                substeps,
+                gravity: DVec3::new(0.0, -980.0, 0.0),
+                ..StepConfig::default()
+            };
             let h = config.substep();
             let v0 = DVec3::new(30.0, 50.0, 0.0);
             let x0 = DVec3::new(start, start, 0.0);
@@ -46,7 +55,10 @@ fn free_fall_is_exact_with_a_consistent_start() {
             let exact = x0 + v0 + 0.5 * config.gravity;
             let drop = (exact - x0).length();
             let error = (solver.particles.position[0] - exact).length();
-            assert!(error / drop < 1e-9, "substeps {substeps} start {start}: error {error}");
+            assert!(
+                error / drop < 1e-9,
+                "substeps {substeps} start {start}: error {error}"
+            );
         }
     }
 }
@@ -55,7 +67,12 @@ fn free_fall_is_exact_with_a_consistent_start() {
 fn damping_is_independent_of_substeps() {
     let mut speeds = Vec::new();
     for substeps in [1, 4, 32] {
-        let config = StepConfig { substeps, gravity: DVec3::ZERO, damping: 2.0, ..StepConfig::default() };
+        let config = StepConfig {
+            substeps,
+            gravity: DVec3::ZERO,
+            damping: 2.0,
+            ..StepConfig::default()
+        };
         let mut solver = Solver::default();
         solver.add_particle(DVec3::ZERO, 1.0);
         solver.particles.previous[0] = DVec3::new(-config.substep(), 0.0, 0.0); // 1 unit/s
@@ -77,8 +94,15 @@ fn rigid_chain_keeps_length_and_pins_hold() {
     for (i, p) in solver.particles.position.iter_mut().enumerate() {
         *p = DVec3::new(0.05 * i as f64, 0.0, 0.0);
     }
-    solver.particles.previous.clone_from(&solver.particles.position);
-    let config = StepConfig { substeps: 32, iterations: 2, ..StepConfig::default() };
+    solver
+        .particles
+        .previous
+        .clone_from(&solver.particles.position);
+    let config = StepConfig {
+        substeps: 32,
+        iterations: 2,
+        ..StepConfig::default()
+    };
     for _ in 0..128 {
         solver.step(&config);
         assert_eq!(solver.particles.position[0], DVec3::ZERO);
@@ -91,7 +115,12 @@ fn rigid_chain_keeps_length_and_pins_hold() {
 fn substeps_beat_iterations_for_the_same_budget() {
     let settle = |substeps, iterations| {
         let mut solver = chain(50, 0.02, 0.0);
-        let config = StepConfig { substeps, iterations, damping: 1.0, ..StepConfig::default() };
+        let config = StepConfig {
+            substeps,
+            iterations,
+            damping: 1.0,
+            ..StepConfig::default()
+        };
         for _ in 0..320 {
             solver.step(&config);
         }
@@ -99,7 +128,10 @@ fn substeps_beat_iterations_for_the_same_budget() {
     };
     let iterations = settle(1, 16);
     let substeps = settle(16, 1);
-    assert!(substeps * 5.0 < iterations, "substeps {substeps} iterations {iterations}");
+    assert!(
+        substeps * 5.0 < iterations,
+        "substeps {substeps} iterations {iterations}"
+    );
 }
 
 #[test]
@@ -109,7 +141,12 @@ fn xpbd_stretch_is_independent_of_iterations_and_matches_the_spring() {
     let mut results = Vec::new();
     for (substeps, iterations) in [(8, 1), (8, 4), (32, 1), (2, 16)] {
         let mut solver = chain(1, 1.0, compliance);
-        let config = StepConfig { substeps, iterations, damping: 5.0, ..StepConfig::default() };
+        let config = StepConfig {
+            substeps,
+            iterations,
+            damping: 5.0,
+            ..StepConfig::default()
+        };
         for _ in 0..640 {
             solver.step(&config);
         }
@@ -137,7 +174,10 @@ fn one_sided_sticks_act_in_one_direction_only() {
         solver.sticks.push([0, 1], 1.0, 0.0, kind, f64::INFINITY, 0);
         solver.relax(0.01, false);
         let length = (solver.particles.position[1] - solver.particles.position[0]).length();
-        assert!((length - expect).abs() < 1e-9, "{kind:?} from {start}: {length}");
+        assert!(
+            (length - expect).abs() < 1e-9,
+            "{kind:?} from {start}: {length}"
+        );
     }
 }
 
@@ -146,7 +186,9 @@ fn mass_weighting_moves_the_light_end() {
     let mut solver = Solver::default();
     solver.add_particle(DVec3::ZERO, 1.0 / 1000.0);
     solver.add_particle(DVec3::X * 2.0, 1.0);
-    solver.sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    solver
+        .sticks
+        .push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
     solver.relax(0.01, false);
     let heavy = solver.particles.position[0].x;
     let light = solver.particles.position[1].x;
@@ -165,7 +207,12 @@ fn tethers_remove_long_chain_stretch() {
             solver.rebuild_tethers();
             assert_eq!(solver.tethers.len(), 100);
         }
-        let config = StepConfig { substeps: 4, iterations: 1, damping: 1.0, ..StepConfig::default() };
+        let config = StepConfig {
+            substeps: 4,
+            iterations: 1,
+            damping: 1.0,
+            ..StepConfig::default()
+        };
         for _ in 0..200 {
             solver.step(&config);
         }
@@ -189,7 +236,10 @@ fn tearing_uses_post_solve_strain_and_rebuilds_tethers() {
     solver.rebuild_tethers();
     let config = StepConfig::default();
     solver.step(&config);
-    assert!(solver.torn.is_empty(), "gravity alone must not tear a rigid chain");
+    assert!(
+        solver.torn.is_empty(),
+        "gravity alone must not tear a rigid chain"
+    );
     // Yank the tip far away: the post-solve strain of the last link exceeds 50 %.
     solver.particles.position[10] += DVec3::new(0.0, -10.0, 0.0);
     solver.particles.inverse_mass[10] = 0.0;
@@ -200,8 +250,20 @@ fn tearing_uses_post_solve_strain_and_rebuilds_tethers() {
         assert_eq!(solver.sticks.kind[t as usize], StickKind::Torn);
     }
     // Every tether still reachable goes through untorn sticks only.
-    for (&p, &max) in solver.tethers.particle.iter().zip(&solver.tethers.max_length) {
-        assert!(p as usize <= torn.iter().map(|&t| solver.sticks.ends[t as usize][0]).min().unwrap() as usize);
+    for (&p, &max) in solver
+        .tethers
+        .particle
+        .iter()
+        .zip(&solver.tethers.max_length)
+    {
+        assert!(
+            p as usize
+                <= torn
+                    .iter()
+                    .map(|&t| solver.sticks.ends[t as usize][0])
+                    .min()
+                    .unwrap() as usize
+        );
         assert!(max <= 1.0 + 1e-9);
     }
     solver.step(&config);
@@ -212,7 +274,11 @@ fn tearing_uses_post_solve_strain_and_rebuilds_tethers() {
 fn moving_pin_is_interpolated_across_substeps() {
     let mut solver = chain(1, 1.0, 0.0);
     solver.pins.set_target(0, DVec3::X);
-    let config = StepConfig { substeps: 4, gravity: DVec3::ZERO, ..StepConfig::default() };
+    let config = StepConfig {
+        substeps: 4,
+        gravity: DVec3::ZERO,
+        ..StepConfig::default()
+    };
     solver.step(&config);
     assert_eq!(solver.particles.position[0], DVec3::X);
     // The pinned particle's last substep displacement is a quarter of the move.
@@ -225,11 +291,17 @@ fn colliders_bounce_and_rest() {
     let mut solver = Solver::default();
     solver.add_particle(DVec3::new(0.0, 1.0, 0.0), 1.0);
     solver.colliders.push(Collider {
-        shape: Shape::Plane { point: DVec3::ZERO, normal: DVec3::Y },
+        shape: Shape::Plane {
+            point: DVec3::ZERO,
+            normal: DVec3::Y,
+        },
         restitution: 0.5,
         friction: 0.0,
     });
-    let config = StepConfig { substeps: 16, ..StepConfig::default() };
+    let config = StepConfig {
+        substeps: 16,
+        ..StepConfig::default()
+    };
     let mut max_after_bounce: f64 = 0.0;
     let mut bounced = false;
     for _ in 0..64 * 3 {
@@ -256,12 +328,27 @@ fn angle_constraint_holds_a_branch() {
     let tip = solver.add_particle(DVec3::new(0.0, 2.0, 0.0), 1.0);
     solver.pin(root, DVec3::ZERO);
     solver.pin(joint, DVec3::Y);
-    solver.sticks.push([joint, tip], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
-    solver.angles.push([root, joint, tip], std::f64::consts::PI, 0.0, Some(DVec3::Z));
-    let config = StepConfig { substeps: 8, gravity: DVec3::new(-9.81, 0.0, 0.0), ..StepConfig::default() };
+    solver
+        .sticks
+        .push([joint, tip], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    solver.angles.push(
+        [root, joint, tip],
+        std::f64::consts::PI,
+        0.0,
+        Some(DVec3::Z),
+    );
+    let config = StepConfig {
+        substeps: 8,
+        gravity: DVec3::new(-9.81, 0.0, 0.0),
+        ..StepConfig::default()
+    };
     for _ in 0..64 {
         solver.step(&config);
     }
     // Gravity pulls sideways but the branch stays nearly straight.
-    assert!(solver.particles.position[2].x.abs() < 0.05, "{}", solver.particles.position[2]);
+    assert!(
+        solver.particles.position[2].x.abs() < 0.05,
+        "{}",
+        solver.particles.position[2]
+    );
 }

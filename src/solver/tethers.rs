@@ -58,7 +58,10 @@ impl PartialOrd for Item {
 impl Ord for Item {
     fn cmp(&self, other: &Self) -> Ordering {
         // Min-heap on distance, ties by index for determinism.
-        other.0.total_cmp(&self.0).then_with(|| other.1.cmp(&self.1))
+        other
+            .0
+            .total_cmp(&self.0)
+            .then_with(|| other.1.cmp(&self.1))
     }
 }
 
@@ -82,7 +85,13 @@ impl Tethers {
 
     /// Recomputes the tethers of every particle with `wanted[i] == true` to its geodesically
     /// nearest pin (multi-source Dijkstra over the non-torn equal and at-most sticks).
-    pub fn rebuild(&mut self, particles: &Particles, sticks: &Sticks, pins: &Pins, wanted: &[bool]) {
+    pub fn rebuild(
+        &mut self,
+        particles: &Particles,
+        sticks: &Sticks,
+        pins: &Pins,
+        wanted: &[bool],
+    ) {
         self.clear();
         let n = particles.len();
         if pins.is_empty() || !wanted.iter().any(|&w| w) {
@@ -103,7 +112,8 @@ impl Tethers {
             self.adjacency_start[i + 1] += self.adjacency_start[i];
         }
         self.adjacency.clear();
-        self.adjacency.resize(self.adjacency_start[n] as usize, (0, 0.0));
+        self.adjacency
+            .resize(self.adjacency_start[n] as usize, (0, 0.0));
         let mut fill: Vec<u32> = self.adjacency_start[..n].to_vec();
         for i in 0..sticks.len() {
             if bounds(i) {
@@ -156,7 +166,12 @@ impl Tethers {
 pub fn relax_tethers(particles: &mut Particles, tethers: &Tethers) {
     let position = &mut particles.position;
     let inverse_mass = &particles.inverse_mass;
-    for ((&p, &a), &max) in tethers.particle.iter().zip(&tethers.anchor).zip(&tethers.max_length) {
+    for ((&p, &a), &max) in tethers
+        .particle
+        .iter()
+        .zip(&tethers.anchor)
+        .zip(&tethers.max_length)
+    {
         if inverse_mass[p as usize] <= 0.0 {
             continue; // grabbed or pinned since the tethers were built
         }

@@ -1,0 +1,158 @@
+//! World colliders: bounds, ground planes and spheres.
+
+use crate::solver::{Collider as CoreCollider, Shape};
+use bevy::prelude::*;
+
+/// The shape of a [`VerletCollider`]. Coordinates are world space, offset by the entity's
+/// `Transform` translation when it has one (so a sphere follows its entity).
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Debug, Clone)]
+pub enum ColliderShape {
+    /// Keeps particles inside the box `min..=max` (the seeds' window rectangle; use
+    /// `f32::INFINITY` to leave an axis free).
+    Bounds {
+        /// Lower corner.
+        min: Vec3,
+        /// Upper corner.
+        max: Vec3,
+    },
+    /// Keeps particles on the side the `normal` points to of the plane through `point`.
+    Plane {
+        /// A point on the plane.
+        point: Vec3,
+        /// Normal pointing to the free side.
+        normal: Vec3,
+    },
+    /// Keeps particles out of a sphere (a circle in 2D).
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+    },
+}
+
+/// A static or moving obstacle for particles, with restitution and friction. Only scenes that
+/// spawn colliders pay for the collision pass.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::prelude::*;
+/// let mut world = World::new();
+/// world.spawn(VerletCollider::ground(0.0).with_friction(0.5));
+/// world.spawn(VerletCollider::bounds_2d(Vec2::new(-640.0, -360.0), Vec2::new(640.0, 360.0)));
+/// world.spawn((VerletCollider::sphere(1.0), Transform::from_xyz(0.0, 2.0, 0.0)));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component, Debug, Clone)]
+pub struct VerletCollider {
+    /// Shape.
+    pub shape: ColliderShape,
+    /// Fraction of the normal speed kept after a bounce (0..=1).
+    pub restitution: f32,
+    /// Coulomb friction coefficient (≥ 0).
+    pub friction: f32,
+}
+
+impl VerletCollider {
+    /// A collider with no bounce and no friction.
+    pub fn new(shape: ColliderShape) -> Self {
+        Self {
+            shape,
+            restitution: 0.0,
+            friction: 0.0,
+        }
+    }
+
+    /// A horizontal ground plane at height `y` (normal +Y).
+    pub fn ground(y: f32) -> Self {
+        Self::new(ColliderShape::Plane {
+            point: Vec3::new(0.0, y, 0.0),
+            normal: Vec3::Y,
+        })
+    }
+
+    /// A sphere of `radius` centred on the entity's translation.
+    pub fn sphere(radius: f32) -> Self {
+        Self::new(ColliderShape::Sphere {
+            center: Vec3::ZERO,
+            radius,
+        })
+    }
+
+    /// A 2D rectangle that keeps particles inside (z is free).
+    pub fn bounds_2d(min: Vec2, max: Vec2) -> Self {
+        Self::new(ColliderShape::Bounds {
+            min: min.extend(f32::NEG_INFINITY),
+            max: max.extend(f32::INFINITY),
+        })
+    }
+
+    /// A 3D box that keeps particles inside.
+    pub fn bounds(min: Vec3, max: Vec3) -> Self {
+        Self::new(ColliderShape::Bounds { min, max })
+    }
+
+    /// Sets the restitution.
+    pub fn with_restitution(mut self, restitution: f32) -> Self {
+        self.restitution = restitution;
+        self
+    }
+
+    /// Sets the friction.
+    pub fn with_friction(mut self, friction: f32) -> Self {
+        self.friction = friction;
+        self
+    }
+
+    /// The solver's collider, offset by `translation`; `None` (with the reason) if any number is
+    /// not usable.
+    pub(crate) fn to_core(self, translation: Vec3) -> Result<CoreCollider, &'static str> {
+        let offset = translation.as_dvec3();
+        let shape = match self.shape {
+            ColliderShape::Bounds { min, max } => {
+                if min.is_nan() || max.is_nan() {
+                    return Err("bounds with a NaN corner");
+                }
+                Shape::Inside {
+                    min: min.as_dvec3() + offset,
+                    max: max.as_dvec3() + offset,
+                }
+            }
+            ColliderShape::Plane { point, normal } => {
+                let normal = normal
+                    .as_dvec3()
+                    .try_normalize()
+                    .ok_or("plane with a zero or non-finite normal")?;
+                if !point.is_finite() {
+                    return Err("plane with a non-finite point");
+                }
+                Shape::Plane {
+                    point: point.as_dvec3() + offset,
+                    normal,
+                }
+            }
+            ColliderShape::Sphere { center, radius } => {
+                if !center.is_finite() || !radius.is_finite() || radius < 0.0 {
+                    return Err("sphere with a non-finite centre or a negative radius");
+                }
+                Shape::Sphere {
+                    center: center.as_dvec3() + offset,
+                    radius: radius as f64,
+                }
+            }
+        };
+        if !offset.is_finite() {
+            return Err("non-finite Transform translation");
+        }
+        Ok(CoreCollider {
+            shape,
+            restitution: (self.restitution as f64).clamp(0.0, 1.0),
+            friction: if self.friction.is_finite() {
+                (self.friction as f64).max(0.0)
+            } else {
+                0.0
+            },
+        })
+    }
+}

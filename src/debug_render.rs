@@ -1,0 +1,187 @@
+//! Debug rendering with gizmos: sticks as lines (optionally coloured by strain), pins marked,
+//! particles with a radius as circles; interpolated between the last two fixed steps.
+
+use crate::StickKind;
+use crate::state::VerletState;
+use bevy::prelude::*;
+
+/// The gizmo config group of the Verlet debug lines, with its style. Toggle or restyle at run
+/// time through `GizmoConfigStore`:
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::prelude::*;
+/// fn toggle(mut store: ResMut<GizmoConfigStore>) {
+///     let (config, style) = store.config_mut::<VerletGizmos>();
+///     config.enabled = !config.enabled;
+///     style.strain_colors = true;
+/// }
+/// # bevy::ecs::system::assert_is_system(toggle);
+/// ```
+#[derive(Reflect, GizmoConfigGroup, Clone, Debug)]
+#[reflect(Default)]
+pub struct VerletGizmos {
+    /// Colour of sticks without a [`DebugColor`].
+    pub stick_color: Color,
+    /// Colour pins are marked with (`None` = not drawn).
+    pub pin_color: Option<Color>,
+    /// Colour of particle circles (`None` = not drawn). Particles with a radius are drawn with
+    /// it; others with [`VerletGizmos::particle_size`].
+    pub particle_color: Option<Color>,
+    /// Radius of the circle drawn for a particle without a collision radius (`0` = none).
+    pub particle_size: f32,
+    /// Size of the pin marker.
+    pub pin_size: f32,
+    /// Blend stick colours towards red as their strain grows to [`VerletGizmos::strain_scale`].
+    pub strain_colors: bool,
+    /// Strain drawn fully red.
+    pub strain_scale: f32,
+    /// Draw circles as spheres (3D scenes).
+    pub spheres: bool,
+}
+
+impl Default for VerletGizmos {
+    fn default() -> Self {
+        Self {
+            stick_color: Color::srgb(0.85, 0.85, 0.85),
+            pin_color: Some(Color::srgb(1.0, 0.3, 0.3)),
+            particle_color: Some(Color::srgb(0.5, 0.8, 1.0)),
+            particle_size: 0.0,
+            pin_size: 3.0,
+            strain_colors: false,
+            strain_scale: 0.1,
+            spheres: false,
+        }
+    }
+}
+
+/// Debug colour of a stick, or (on a composite's parent) of all its sticks — verlet-js's
+/// per-composite draw hooks.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::prelude::*;
+/// let mut world = World::new();
+/// RopeBuilder::new(Vec3::ZERO, Vec3::X, 3).color(Color::srgb(1.0, 0.5, 0.0)).spawn(&mut world.commands());
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component, Debug, Clone)]
+pub struct DebugColor(pub Color);
+
+/// Alias kept for discoverability: the style lives in [`VerletGizmos`].
+pub type VerletDebugConfig = VerletGizmos;
+
+/// Draws the simulation with gizmos (needs Bevy's `GizmoPlugin`, part of `DefaultPlugins`).
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::prelude::*;
+/// App::new().add_plugins((DefaultPlugins, VerletPlugin::default(), VerletDebugPlugin));
+/// ```
+pub struct VerletDebugPlugin;
+
+impl Plugin for VerletDebugPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_gizmo_group::<VerletGizmos>()
+            .register_type::<DebugColor>()
+            .init_resource::<StickColors>()
+            .add_systems(PostUpdate, (cache_stick_colors, draw).chain());
+    }
+}
+
+/// Per-stick colours, rebuilt when the topology changes.
+#[derive(Resource, Default)]
+struct StickColors {
+    generation: u64,
+    colors: Vec<Option<Color>>,
+}
+
+fn cache_stick_colors(
+    state: Res<VerletState>,
+    mut cache: ResMut<StickColors>,
+    colors: Query<(Option<&DebugColor>, Option<&ChildOf>)>,
+    parents: Query<&DebugColor>,
+) {
+    if cache.generation == state.generation && cache.colors.len() == state.stick_entities.len() {
+        return;
+    }
+    cache.generation = state.generation;
+    cache.colors.clear();
+    for &stick in &state.stick_entities {
+        let color = match colors.get(stick) {
+            Ok((Some(color), _)) => Some(color.0),
+            Ok((None, Some(parent))) => parents.get(parent.parent()).ok().map(|c| c.0),
+            _ => None,
+        };
+        cache.colors.push(color);
+    }
+}
+
+fn draw(
+    state: Res<VerletState>,
+    cache: Res<StickColors>,
+    time: Res<Time<Fixed>>,
+    mut gizmos: Gizmos<VerletGizmos>,
+) {
+    let style = gizmos.config_ext.clone();
+    let fraction = time.overstep_fraction().clamp(0.0, 1.0);
+    let solver = &state.solver;
+    if state.render_current.len() != solver.particles.len() {
+        return;
+    }
+    let position = |slot: u32| state.render_position(slot as usize, fraction);
+    for (i, &[a, b]) in solver.sticks.ends.iter().enumerate() {
+        if solver.sticks.kind[i] == StickKind::Torn {
+            continue;
+        }
+        let (pa, pb) = (position(a), position(b));
+        let mut color = cache
+            .colors
+            .get(i)
+            .copied()
+            .flatten()
+            .unwrap_or(style.stick_color);
+        if style.strain_colors {
+            let rest = solver.sticks.rest_length[i] as f32;
+            if rest > 0.0 {
+                let strain = ((pa - pb).length() / rest - 1.0).abs();
+                let t = (strain / style.strain_scale.max(1e-6)).min(1.0);
+                color = color.mix(&Color::srgb(1.0, 0.1, 0.1), t);
+            }
+        }
+        gizmos.line(pa, pb, color);
+    }
+    if let Some(color) = style.pin_color {
+        for &p in &solver.pins.particle {
+            let center = position(p);
+            let s = style.pin_size;
+            gizmos.line(
+                center + Vec3::new(-s, -s, 0.0),
+                center + Vec3::new(s, s, 0.0),
+                color,
+            );
+            gizmos.line(
+                center + Vec3::new(-s, s, 0.0),
+                center + Vec3::new(s, -s, 0.0),
+                color,
+            );
+        }
+    }
+    if let Some(color) = style.particle_color {
+        for slot in 0..solver.particles.len() {
+            let radius = match solver.particles.radius[slot] as f32 {
+                r if r > 0.0 => r,
+                _ => style.particle_size,
+            };
+            if radius <= 0.0 {
+                continue;
+            }
+            let center = position(slot as u32);
+            if style.spheres {
+                gizmos.sphere(Isometry3d::from_translation(center), radius, color);
+            } else {
+                gizmos.circle(Isometry3d::from_translation(center), radius, color);
+            }
+        }
+    }
+}

@@ -1,0 +1,413 @@
+//! [`VerletState`]: the solver core plus the bookkeeping that ties it to entities.
+//!
+//! Each fixed step the plugin *gathers* what users changed on components into the core's arrays
+//! and *scatters* positions back once. The table from entities to array slots (and from sticks to
+//! particle slots) is built only when the topology changes — particles, sticks, pins, angle
+//! constraints or tethers added or removed, a stick torn — so the solver loops never look up an
+//! entity. Particle state is carried over a rebuild by entity, in `f64`, so a rebuild never costs
+//! accuracy.
+
+use crate::particle::NO_SLOT;
+use crate::solver::{Particles, Solver, Substep, consistent_previous};
+use crate::{AngleConstraint, Particle, Pin, PinTarget, Stick};
+use bevy::ecs::entity::EntityHashMap;
+use bevy::platform::collections::HashSet;
+use bevy::prelude::*;
+use glam::DVec3;
+
+/// What went wrong with a component, for warn-once bookkeeping.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum Problem {
+    Position,
+    Mass,
+    Radius,
+    Endpoint,
+    SelfStick,
+    RestLength,
+    Compliance,
+    TearStrain,
+    PinTarget,
+    Collider,
+    Angle,
+}
+
+/// The solver core and its entity bookkeeping (a resource).
+///
+/// Most games never touch it; it is public for custom constraints (systems in
+/// [`VerletSubstepSystems`](crate::VerletSubstepSystems) can read and change
+/// [`VerletState::solver`]) and for tools that want the dense arrays.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::prelude::*;
+/// fn count(state: Res<VerletState>) {
+///     info!("{} particles in the solver", state.solver.particles.len());
+/// }
+/// # bevy::ecs::system::assert_is_system(count);
+/// ```
+#[derive(Resource, Default)]
+pub struct VerletState {
+    /// The solver core.
+    pub solver: Solver,
+    /// Particle entity of every solver slot.
+    pub(crate) particle_entities: Vec<Entity>,
+    /// Stick entity of every solver stick.
+    pub(crate) stick_entities: Vec<Entity>,
+    /// Entity → particle slot (valid between rebuilds).
+    pub(crate) slots: EntityHashMap<u32>,
+    /// Force a rebuild before the next step.
+    pub(crate) dirty: bool,
+    /// Incremented on every rebuild (render caches key on it).
+    pub(crate) generation: u64,
+    /// Whether the current fixed step runs (not paused, or a requested single step).
+    pub(crate) active: bool,
+    /// The substep being run.
+    pub(crate) substep: Option<Substep>,
+    /// Particle positions at the start and end of the last fixed step, for interpolation.
+    pub(crate) render_previous: Vec<Vec3>,
+    pub(crate) render_current: Vec<Vec3>,
+    /// Sticks torn in the last step that the ECS has not removed yet.
+    pub(crate) torn_pending: usize,
+    warned: HashSet<(Entity, Problem)>,
+    scratch: Particles,
+}
+
+impl VerletState {
+    /// Particle entity in solver slot `slot`.
+    pub fn particle_entity(&self, slot: usize) -> Option<Entity> {
+        self.particle_entities.get(slot).copied()
+    }
+
+    /// Stick entity of solver stick `index`.
+    pub fn stick_entity(&self, index: usize) -> Option<Entity> {
+        self.stick_entities.get(index).copied()
+    }
+
+    /// Solver slot of a particle entity (valid until the next topology change).
+    pub fn slot(&self, entity: Entity) -> Option<u32> {
+        self.slots.get(&entity).copied()
+    }
+
+    /// Interpolated render position of solver slot `slot` (`fraction` as in
+    /// `Time::<Fixed>::overstep_fraction`).
+    pub fn render_position(&self, slot: usize, fraction: f32) -> Vec3 {
+        self.render_previous[slot].lerp(self.render_current[slot], fraction)
+    }
+
+    /// Requests a topology rebuild before the next step.
+    pub fn mark_dirty(&mut self) {
+        self.dirty = true;
+    }
+
+    /// Warns once per entity and problem.
+    pub(crate) fn warn(
+        &mut self,
+        entity: Entity,
+        problem: Problem,
+        message: impl FnOnce() -> String,
+    ) {
+        if self.warned.insert((entity, problem)) {
+            warn!("bevy_verlet_physics: {entity}: {}", message());
+        }
+    }
+
+    /// Validated inverse mass and radius of a particle component (with warnings).
+    fn material(&mut self, entity: Entity, particle: &Particle) -> (f64, f64) {
+        let w = particle.inverse_mass;
+        let inverse_mass = if w.is_finite() && w >= 0.0 {
+            w as f64
+        } else {
+            self.warn(entity, Problem::Mass, || {
+                format!("Particle inverse_mass {w} is not finite and ≥ 0 (mass ≤ 0 or NaN?); using mass 1")
+            });
+            1.0
+        };
+        let r = particle.radius;
+        let radius = if r.is_finite() && r >= 0.0 {
+            r as f64
+        } else {
+            self.warn(entity, Problem::Radius, || {
+                format!("Particle radius {r} is not finite and ≥ 0; using 0")
+            });
+            0.0
+        };
+        (inverse_mass, radius)
+    }
+
+    /// The solver state `(x, x*)` a component asks for: its velocity
+    /// `(position − previous_position)/dt` taken as the velocity at this instant, started on
+    /// the exact constant-acceleration curve. `None` (with a warning) if not finite.
+    fn state_from_component(
+        &mut self,
+        entity: Entity,
+        particle: &Particle,
+        acceleration: DVec3,
+        dt: f64,
+        h: f64,
+    ) -> Option<(DVec3, DVec3)> {
+        if !(particle.position.is_finite() && particle.previous_position.is_finite()) {
+            self.warn(entity, Problem::Position, || {
+                format!(
+                    "Particle position {} / previous {} is not finite; the value is ignored",
+                    particle.position, particle.previous_position
+                )
+            });
+            return None;
+        }
+        let x = particle.position.as_dvec3();
+        let velocity = (x - particle.previous_position.as_dvec3()) / dt;
+        Some((x, consistent_previous(x, velocity, acceleration, h)))
+    }
+
+    /// Applies a user's edit of a particle that is already in the solver.
+    pub(crate) fn gather_edit(
+        &mut self,
+        entity: Entity,
+        particle: &Particle,
+        gravity: DVec3,
+        dt: f64,
+        h: f64,
+    ) {
+        let slot = particle.slot as usize;
+        let pinned = self.solver.particles.inverse_mass[slot] == 0.0 && self.is_pinned(slot);
+        let (mut w, radius) = self.material(entity, particle);
+        if pinned {
+            w = 0.0;
+        }
+        let acceleration = if w > 0.0 { gravity } else { DVec3::ZERO };
+        if let Some((x, previous)) =
+            self.state_from_component(entity, particle, acceleration, dt, h)
+        {
+            self.solver.particles.position[slot] = x;
+            self.solver.particles.previous[slot] = previous;
+            self.render_previous[slot] = particle.previous_position;
+            self.render_current[slot] = particle.position;
+        }
+        self.solver.particles.inverse_mass[slot] = w;
+        self.solver.particles.radius[slot] = radius;
+    }
+
+    fn is_pinned(&self, slot: usize) -> bool {
+        self.solver.pins.particle.contains(&(slot as u32))
+    }
+
+    /// `true` when `particle.slot` refers to this entity's solver slot.
+    pub(crate) fn owns_slot(&self, entity: Entity, particle: &Particle) -> bool {
+        particle.slot != NO_SLOT
+            && self.particle_entities.get(particle.slot as usize) == Some(&entity)
+    }
+
+    /// Resolves a pin's target, or `None` (warned) if it cannot be.
+    pub(crate) fn pin_target(
+        &mut self,
+        entity: Entity,
+        pin: &Pin,
+        transforms: &Query<&Transform>,
+    ) -> Option<DVec3> {
+        let target = match pin.target {
+            PinTarget::Position(position) => position,
+            PinTarget::Entity {
+                entity: followed,
+                offset,
+            } => {
+                match transforms.get(followed) {
+                    Ok(transform) => transform.translation + offset,
+                    Err(_) => {
+                        self.warn(entity, Problem::PinTarget, || {
+                        format!("Pin follows {followed}, which has no Transform; the pin holds still")
+                    });
+                        return None;
+                    }
+                }
+            }
+        };
+        if target.is_finite() {
+            Some(target.as_dvec3())
+        } else {
+            self.warn(entity, Problem::PinTarget, || {
+                format!("Pin target {target} is not finite; the pin holds still")
+            });
+            None
+        }
+    }
+}
+
+/// Inputs of a topology rebuild.
+pub(crate) struct RebuildInputs {
+    pub gravity: DVec3,
+    pub dt: f64,
+    pub h: f64,
+}
+
+impl VerletState {
+    /// Rebuilds the solver's topology from the components, carrying particle state over by
+    /// entity.
+    pub(crate) fn rebuild(
+        &mut self,
+        inputs: &RebuildInputs,
+        particles: &mut Query<(Entity, &mut Particle, Option<&Pin>, Has<crate::Tethered>)>,
+        sticks: &mut Query<(Entity, &mut Stick)>,
+        angles: &mut Query<(Entity, &mut AngleConstraint)>,
+        transforms: &Query<&Transform>,
+    ) {
+        let old_slots = std::mem::take(&mut self.slots);
+        std::mem::swap(&mut self.scratch, &mut self.solver.particles);
+        let colliders = std::mem::take(&mut self.solver.colliders);
+        self.solver.clear();
+        self.solver.colliders = colliders;
+        self.particle_entities.clear();
+        self.stick_entities.clear();
+        self.render_previous.clear();
+        self.render_current.clear();
+        self.torn_pending = 0;
+
+        for (entity, mut particle, pin, tethered) in particles.iter_mut() {
+            let (mut w, radius) = self.material(entity, &particle);
+            let target = pin.and_then(|pin| self.pin_target(entity, pin, transforms));
+            if pin.is_some() {
+                w = 0.0;
+            }
+            let acceleration = if w > 0.0 { inputs.gravity } else { DVec3::ZERO };
+            let carried = old_slots
+                .get(&entity)
+                .filter(|_| !particle.is_changed())
+                .map(|&old| {
+                    (
+                        self.scratch.position[old as usize],
+                        self.scratch.previous[old as usize],
+                    )
+                });
+            let state = match carried {
+                Some(state) => Some(state),
+                None => {
+                    self.state_from_component(entity, &particle, acceleration, inputs.dt, inputs.h)
+                }
+            };
+            let Some((x, previous)) = state else {
+                particle.bypass_change_detection().slot = NO_SLOT;
+                continue;
+            };
+            let slot = self
+                .solver
+                .particles
+                .push(x, previous, w, radius, entity.to_bits());
+            self.solver.tethered.push(tethered);
+            self.particle_entities.push(entity);
+            self.render_previous.push(particle.previous_position);
+            self.render_current.push(particle.position);
+            self.slots.insert(entity, slot);
+            particle.bypass_change_detection().slot = slot;
+            if pin.is_some() {
+                let pin_index = self.solver.pins.push(slot, target.unwrap_or(x));
+                // Start from where the particle is, so a new pin drags it there smoothly.
+                self.solver.pins.from[pin_index] = x;
+            }
+        }
+
+        for (entity, mut stick) in sticks.iter_mut() {
+            let (Some(&a), Some(&b)) = (self.slots.get(&stick.a), self.slots.get(&stick.b)) else {
+                let (sa, sb) = (stick.a, stick.b);
+                self.warn(entity, Problem::Endpoint, || {
+                    format!("Stick endpoint {sa} or {sb} is not a simulated particle (despawned, never a Particle, or invalid); the stick is ignored")
+                });
+                continue;
+            };
+            if a == b {
+                self.warn(entity, Problem::SelfStick, || {
+                    "Stick connects a particle to itself; ignored".to_string()
+                });
+                continue;
+            }
+            let p = &self.solver.particles;
+            let distance = (p.position[a as usize] - p.position[b as usize]).length();
+            let w = p.inverse_mass[a as usize] + p.inverse_mass[b as usize];
+            let rest = match stick.rest_length {
+                Some(rest) if rest.is_finite() && rest >= 0.0 => rest as f64,
+                None => {
+                    stick.bypass_change_detection().rest_length = Some(distance as f32);
+                    distance
+                }
+                Some(rest) => {
+                    self.warn(entity, Problem::RestLength, || {
+                        format!("Stick rest length {rest} is negative or not finite; using the current distance {distance}")
+                    });
+                    distance
+                }
+            };
+            let compliance = stick.stiffness.compliance(w);
+            let compliance = if compliance.is_finite() && compliance >= 0.0 {
+                compliance
+            } else {
+                let stiffness = stick.stiffness;
+                self.warn(entity, Problem::Compliance, || {
+                    format!(
+                        "Stick stiffness {stiffness:?} gives compliance {compliance}; using rigid"
+                    )
+                });
+                0.0
+            };
+            let tear = match stick.tear_strain {
+                None => f64::INFINITY,
+                Some(s) if s.is_finite() && s >= 0.0 => s as f64,
+                Some(s) => {
+                    self.warn(entity, Problem::TearStrain, || {
+                        format!("Stick tear strain {s} is negative or not finite; the stick will not tear")
+                    });
+                    f64::INFINITY
+                }
+            };
+            self.solver
+                .sticks
+                .push([a, b], rest, compliance, stick.kind, tear, entity.to_bits());
+            self.stick_entities.push(entity);
+        }
+
+        for (entity, mut angle) in angles.iter_mut() {
+            let found = [angle.a, angle.b, angle.c].map(|e| self.slots.get(&e).copied());
+            let [Some(a), Some(b), Some(c)] = found else {
+                self.warn(entity, Problem::Endpoint, || {
+                    "AngleConstraint refers to an entity that is not a simulated particle; ignored"
+                        .to_string()
+                });
+                continue;
+            };
+            if a == b || b == c {
+                self.warn(entity, Problem::SelfStick, || {
+                    "AngleConstraint's vertex is also an arm; ignored".to_string()
+                });
+                continue;
+            }
+            let axis = angle.axis.map(|k| k.as_dvec3());
+            let index = self.solver.angles.push([a, b, c], 0.0, 0.0, axis);
+            let current = self.solver.angles.angle(index, &self.solver.particles);
+            let rest = match angle.rest_angle {
+                Some(rest) if rest.is_finite() => rest as f64,
+                None => {
+                    angle.bypass_change_detection().rest_angle = Some(current as f32);
+                    current
+                }
+                Some(rest) => {
+                    self.warn(entity, Problem::Angle, || {
+                        format!("AngleConstraint rest angle {rest} is not finite; using the current angle")
+                    });
+                    current
+                }
+            };
+            let p = &self.solver.particles;
+            let w = p.inverse_mass[a as usize]
+                + p.inverse_mass[b as usize]
+                + p.inverse_mass[c as usize];
+            let compliance = angle.stiffness.compliance(w);
+            self.solver.angles.rest_angle[index] = rest;
+            self.solver.angles.compliance[index] = if compliance.is_finite() && compliance >= 0.0 {
+                compliance
+            } else {
+                0.0
+            };
+        }
+
+        self.solver.rebuild_tethers();
+        self.generation += 1;
+        self.dirty = false;
+    }
+}

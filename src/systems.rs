@@ -1,0 +1,280 @@
+//! The plugin's systems: prepare (gather) → substeps (integrate → relax × N → constrain) →
+//! tear → writeback (scatter).
+
+use crate::solver::StepConfig;
+use crate::state::{Problem, RebuildInputs, VerletState};
+use crate::{
+    AngleConstraint, Gravity, Particle, Pin, StickTorn, Tethered, VerletCollider, VerletConfig,
+    VerletStats,
+};
+use crate::{Stick, VerletSubsteps};
+use bevy::platform::time::Instant;
+use bevy::prelude::*;
+
+/// Timing of the step in progress.
+#[derive(Resource, Default)]
+pub(crate) struct StepClock {
+    started: Option<Instant>,
+}
+
+/// What changed since the last run, read from removal buffers and change filters.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn detect_topology_changes(
+    mut state: ResMut<VerletState>,
+    added_particles: Query<(), Added<Particle>>,
+    changed_sticks: Query<(), Changed<Stick>>,
+    changed_angles: Query<(), Changed<AngleConstraint>>,
+    added_pins: Query<(), Added<Pin>>,
+    added_tethers: Query<(), Added<Tethered>>,
+    mut removed_particles: RemovedComponents<Particle>,
+    mut removed_sticks: RemovedComponents<Stick>,
+    mut removed_angles: RemovedComponents<AngleConstraint>,
+    mut removed_pins: RemovedComponents<Pin>,
+    mut removed_tethers: RemovedComponents<Tethered>,
+) {
+    // Drain every removal buffer (they are cleared each frame, paused or not).
+    let removed = removed_particles.read().count()
+        + removed_sticks.read().count()
+        + removed_angles.read().count()
+        + removed_pins.read().count()
+        + removed_tethers.read().count();
+    if removed > 0
+        || !added_particles.is_empty()
+        || !changed_sticks.is_empty()
+        || !changed_angles.is_empty()
+        || !added_pins.is_empty()
+        || !added_tethers.is_empty()
+    {
+        state.dirty = true;
+    }
+}
+
+/// Decides whether this fixed step runs (pause and single-step).
+pub(crate) fn decide_step(mut state: ResMut<VerletState>, mut config: ResMut<VerletConfig>) {
+    state.active = if !config.paused {
+        true
+    } else if config.pending_steps > 0 {
+        config.pending_steps -= 1;
+        true
+    } else {
+        false
+    };
+}
+
+/// Run condition: the step runs.
+pub(crate) fn step_is_active(state: Res<VerletState>) -> bool {
+    state.active
+}
+
+fn step_config(config: &VerletConfig, gravity: &Gravity, time: &Time) -> StepConfig {
+    StepConfig {
+        timestep: time.delta_secs_f64(),
+        substeps: config.substeps.max(1),
+        iterations: config.iterations.max(1),
+        gravity: gravity.0.as_dvec3(),
+        damping: if config.damping.is_finite() {
+            config.damping.max(0.0) as f64
+        } else {
+            0.0
+        },
+    }
+}
+
+/// Gathers what users changed into the solver, rebuilding the topology if it changed.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn prepare(
+    mut state: ResMut<VerletState>,
+    mut clock: ResMut<StepClock>,
+    config: Res<VerletConfig>,
+    gravity: Res<Gravity>,
+    time: Res<Time>,
+    mut particles: Query<(Entity, &mut Particle, Option<&Pin>, Has<Tethered>)>,
+    mut sticks: Query<(Entity, &mut Stick)>,
+    mut angles: Query<(Entity, &mut AngleConstraint)>,
+    pins: Query<(Entity, &Pin)>,
+    colliders: Query<(Entity, &VerletCollider, Option<&Transform>)>,
+    transforms: Query<&Transform>,
+) {
+    clock.started = Some(Instant::now());
+    let step = step_config(&config, &gravity, &time);
+    let (dt, h) = (step.timestep, step.substep());
+    // An edited particle the solver does not know (e.g. a rejected one that was fixed) needs a
+    // rebuild.
+    if !state.dirty {
+        for (entity, particle, _, _) in particles.iter_mut() {
+            if particle.is_changed() && !state.owns_slot(entity, &particle) {
+                state.dirty = true;
+                break;
+            }
+        }
+    }
+    if state.dirty {
+        let inputs = RebuildInputs {
+            gravity: step.gravity,
+            dt,
+            h,
+        };
+        state.rebuild(
+            &inputs,
+            &mut particles,
+            &mut sticks,
+            &mut angles,
+            &transforms,
+        );
+    } else {
+        for (entity, particle, _, _) in particles.iter_mut() {
+            if particle.is_changed() {
+                state.gather_edit(entity, &particle, step.gravity, dt, h);
+            }
+        }
+    }
+    // Pin targets move every step.
+    let state = &mut *state;
+    for (entity, pin) in pins.iter() {
+        let Some(slot) = state.slot(entity) else {
+            continue;
+        };
+        let Some(index) = state.solver.pins.particle.iter().position(|&p| p == slot) else {
+            continue;
+        };
+        if let Some(target) = state.pin_target(entity, pin, &transforms) {
+            state.solver.pins.set_target(index, target);
+        }
+    }
+    state.solver.colliders.clear();
+    for (entity, collider, transform) in colliders.iter() {
+        let translation = transform.map_or(Vec3::ZERO, |t| t.translation);
+        match collider.to_core(translation) {
+            Ok(core) => state.solver.colliders.push(core),
+            Err(reason) => state.warn(entity, Problem::Collider, || {
+                format!("VerletCollider ignored: {reason}")
+            }),
+        }
+    }
+}
+
+/// Runs the [`VerletSubsteps`] schedule once per substep.
+pub(crate) fn run_substeps(world: &mut World) {
+    let step = {
+        let config = world.resource::<VerletConfig>();
+        let gravity = world.resource::<Gravity>();
+        let time = world.resource::<Time>();
+        step_config(config, gravity, time)
+    };
+    if step.timestep <= 0.0 {
+        return;
+    }
+    for index in 1..=step.substeps {
+        world.resource_mut::<VerletState>().substep = Some(step.substep_context(index));
+        world.run_schedule(VerletSubsteps);
+    }
+    world.resource_mut::<VerletState>().substep = None;
+}
+
+/// Substep phase 1: Verlet integration and kinematic pins.
+pub(crate) fn integrate(mut state: ResMut<VerletState>) {
+    let state = &mut *state;
+    if let Some(substep) = state.substep {
+        state.solver.integrate_substep(&substep);
+    }
+}
+
+/// Substep phase 2: `iterations` relaxation sweeps over sticks, angles and tethers.
+pub(crate) fn relax(mut state: ResMut<VerletState>) {
+    let state = &mut *state;
+    if let Some(substep) = state.substep {
+        state.solver.relax_substep(&substep);
+    }
+}
+
+/// Substep phase 3: colliders.
+pub(crate) fn constrain(mut state: ResMut<VerletState>) {
+    let state = &mut *state;
+    if let Some(substep) = state.substep {
+        state.solver.constrain_substep(&substep);
+    }
+}
+
+/// Tears overstrained sticks (post-solve strain), reports each once, and removes them.
+pub(crate) fn tear(
+    mut state: ResMut<VerletState>,
+    config: Res<VerletConfig>,
+    mut stats: ResMut<VerletStats>,
+    mut messages: MessageWriter<StickTorn>,
+    mut commands: Commands,
+) {
+    let state = &mut *state;
+    let torn = state.solver.finish_step();
+    if torn == 0 {
+        return;
+    }
+    state.torn_pending += torn;
+    stats.torn_total += torn as u64;
+    let solver = &state.solver;
+    for &index in &solver.torn {
+        let index = index as usize;
+        let [a, b] = solver.sticks.ends[index];
+        let (xa, xb) = (
+            solver.particles.position[a as usize],
+            solver.particles.position[b as usize],
+        );
+        let stick = state.stick_entities[index];
+        messages.write(StickTorn {
+            stick,
+            particles: [
+                state.particle_entities[a as usize],
+                state.particle_entities[b as usize],
+            ],
+            position: ((xa + xb) * 0.5).as_vec3(),
+            strain: solver.sticks.strain(index, &solver.particles) as f32,
+        });
+        if let Ok(mut entity) = commands.get_entity(stick) {
+            if config.despawn_torn_sticks {
+                entity.try_despawn();
+            } else {
+                entity.try_remove::<Stick>();
+            }
+        }
+    }
+}
+
+/// Scatters the solver's positions back into the `Particle` components (without triggering
+/// change detection, so that only users' edits are gathered).
+pub(crate) fn writeback(
+    mut state: ResMut<VerletState>,
+    mut clock: ResMut<StepClock>,
+    mut stats: ResMut<VerletStats>,
+    mut particles: Query<(Entity, &mut Particle)>,
+) {
+    let state = &mut *state;
+    for (entity, mut particle) in particles.iter_mut() {
+        if !state.owns_slot(entity, &particle) {
+            continue;
+        }
+        let slot = particle.slot as usize;
+        let position = state.solver.particles.position[slot].as_vec3();
+        let particle = particle.bypass_change_detection();
+        particle.previous_position = particle.position;
+        particle.position = position;
+        state.render_previous[slot] = particle.previous_position;
+        state.render_current[slot] = position;
+    }
+    stats.particles = state.solver.particles.len();
+    stats.sticks = state.solver.sticks.len() - state.torn_pending;
+    stats.steps += 1;
+    if let Some(started) = clock.started.take() {
+        stats.step_micros = started.elapsed().as_secs_f32() * 1e6;
+    }
+}
+
+/// Counts rebuilds (runs after prepare).
+pub(crate) fn count_rebuilds(
+    state: Res<VerletState>,
+    mut stats: ResMut<VerletStats>,
+    mut seen: Local<u64>,
+) {
+    if state.generation != *seen {
+        *seen = state.generation;
+        stats.rebuilds += 1;
+    }
+}
