@@ -14,10 +14,11 @@ use bevy::prelude::*;
 /// assert_ne!(rope_link, spring);
 /// assert_ne!(spring, seed);
 /// ```
-#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
 #[reflect(Default, Debug, Clone)]
 pub enum Stiffness {
     /// Infinitely stiff (compliance 0).
+    #[default]
     Rigid,
     /// XPBD compliance α = 1/k (length per force). Behaves the same at any substep and
     /// iteration count.
@@ -35,12 +36,6 @@ pub enum Stiffness {
         /// Step of the original code, in seconds.
         timestep: f32,
     },
-}
-
-impl Default for Stiffness {
-    fn default() -> Self {
-        Self::Rigid
-    }
 }
 
 impl Stiffness {

@@ -150,9 +150,9 @@ impl Tethers {
                 }
             }
         }
-        for i in 0..n {
+        for (i, &wants) in wanted.iter().enumerate().take(n) {
             let reachable = self.distance[i].is_finite() && self.source[i] != i as u32;
-            if wanted[i] && reachable && particles.inverse_mass[i] > 0.0 {
+            if wants && reachable && particles.inverse_mass[i] > 0.0 {
                 self.particle.push(i as u32);
                 self.anchor.push(self.source[i]);
                 self.max_length.push(self.distance[i]);
