@@ -86,6 +86,7 @@ impl Plugin for VerletDebugPlugin {
             .register_type::<DebugColor>()
             .init_resource::<StickColors>()
             .add_systems(PostUpdate, (cache_stick_colors, draw).chain());
+        crate::cloth_mesh::plugin(app);
     }
 }
 
@@ -93,13 +94,18 @@ impl Plugin for VerletDebugPlugin {
 #[derive(Resource, Default)]
 struct StickColors {
     generation: u64,
-    colors: Vec<Option<Color>>,
+    /// `None` = hidden; `Some(None)` = default colour.
+    colors: Vec<Option<Option<Color>>>,
 }
 
 fn cache_stick_colors(
     state: Res<VerletState>,
     mut cache: ResMut<StickColors>,
-    colors: Query<(Option<&DebugColor>, Option<&ChildOf>)>,
+    colors: Query<(
+        Option<&DebugColor>,
+        Option<&ChildOf>,
+        Has<crate::HiddenStick>,
+    )>,
     parents: Query<&DebugColor>,
 ) {
     if cache.generation == state.generation && cache.colors.len() == state.stick_entities.len() {
@@ -109,9 +115,10 @@ fn cache_stick_colors(
     cache.colors.clear();
     for &stick in &state.stick_entities {
         let color = match colors.get(stick) {
-            Ok((Some(color), _)) => Some(color.0),
-            Ok((None, Some(parent))) => parents.get(parent.parent()).ok().map(|c| c.0),
-            _ => None,
+            Ok((_, _, true)) => None,
+            Ok((Some(color), _, _)) => Some(Some(color.0)),
+            Ok((None, Some(parent), _)) => Some(parents.get(parent.parent()).ok().map(|c| c.0)),
+            _ => Some(None),
         };
         cache.colors.push(color);
     }
@@ -134,13 +141,11 @@ fn draw(
         if solver.sticks.kind[i] == StickKind::Torn {
             continue;
         }
+        let Some(color) = cache.colors.get(i).copied().unwrap_or(Some(None)) else {
+            continue; // hidden
+        };
+        let mut color = color.unwrap_or(style.stick_color);
         let (pa, pb) = (position(a), position(b));
-        let mut color = cache
-            .colors
-            .get(i)
-            .copied()
-            .flatten()
-            .unwrap_or(style.stick_color);
         if style.strain_colors {
             let rest = solver.sticks.rest_length[i] as f32;
             if rest > 0.0 {

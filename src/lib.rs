@@ -28,24 +28,36 @@
 #![warn(missing_docs)]
 
 pub mod builders;
+#[cfg(feature = "gizmos")]
+mod cloth_mesh;
 mod collider;
 mod config;
 #[cfg(feature = "gizmos")]
 mod debug_render;
+#[cfg(feature = "gizmos")]
+pub mod interaction;
 mod messages;
 mod particle;
 mod pin;
 mod plugin;
+pub mod scenes;
 pub mod solver;
 mod state;
 mod stick;
 mod systems;
+mod transform_sync;
 
-pub use builders::{ClothBuilder, Composite, RopeBuilder, StructureBuilder};
+pub use builders::{
+    ClothBuilder, Composite, HiddenStick, RagdollBuilder, RopeBuilder, StructureBuilder,
+};
+#[cfg(feature = "gizmos")]
+pub use cloth_mesh::ClothMesh;
 pub use collider::{ColliderShape, VerletCollider};
 pub use config::{Gravity, VerletConfig, VerletStats};
 #[cfg(feature = "gizmos")]
 pub use debug_render::{DebugColor, VerletDebugConfig, VerletDebugPlugin, VerletGizmos};
+#[cfg(feature = "gizmos")]
+pub use interaction::{ResetRequested, VerletInteraction, VerletInteractionPlugin};
 pub use messages::StickTorn;
 pub use particle::{Particle, Tethered};
 pub use pin::{Pin, PinTarget};
@@ -53,15 +65,22 @@ pub use plugin::{VerletPlugin, VerletSubstepSystems, VerletSubsteps, VerletSyste
 pub use solver::StickKind;
 pub use state::VerletState;
 pub use stick::{AngleConstraint, Stick, Stiffness};
+pub use transform_sync::{FollowParticle, FollowStick};
 
 /// Everything a game usually needs.
 pub mod prelude {
-    pub use crate::builders::{ClothBuilder, Composite, RopeBuilder, StructureBuilder};
+    pub use crate::builders::{
+        ClothBuilder, Composite, HiddenStick, RagdollBuilder, RopeBuilder, StructureBuilder,
+    };
     pub use crate::{
-        AngleConstraint, ColliderShape, Gravity, Particle, Pin, PinTarget, Stick, StickKind,
-        StickTorn, Stiffness, Tethered, VerletCollider, VerletConfig, VerletPlugin, VerletState,
-        VerletStats, VerletSubstepSystems, VerletSubsteps, VerletSystems,
+        AngleConstraint, ColliderShape, FollowParticle, FollowStick, Gravity, Particle, Pin,
+        PinTarget, Stick, StickKind, StickTorn, Stiffness, Tethered, VerletCollider, VerletConfig,
+        VerletPlugin, VerletState, VerletStats, VerletSubstepSystems, VerletSubsteps,
+        VerletSystems,
     };
     #[cfg(feature = "gizmos")]
-    pub use crate::{DebugColor, VerletDebugConfig, VerletDebugPlugin, VerletGizmos};
+    pub use crate::{
+        ClothMesh, DebugColor, ResetRequested, VerletDebugConfig, VerletDebugPlugin, VerletGizmos,
+        VerletInteraction, VerletInteractionPlugin,
+    };
 }

@@ -85,6 +85,7 @@ impl Plugin for VerletPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<Particle>()
             .register_type::<crate::Composite>()
+            .register_type::<crate::HiddenStick>()
             .register_type::<Tethered>()
             .register_type::<Stick>()
             .register_type::<Stiffness>()
@@ -102,6 +103,8 @@ impl Plugin for VerletPlugin {
             .init_resource::<VerletState>()
             .init_resource::<StepClock>()
             .add_message::<StickTorn>();
+
+        crate::transform_sync::plugin(app);
 
         let mut substeps = Schedule::new(VerletSubsteps);
         substeps.set_executor(SingleThreadedExecutor::new());

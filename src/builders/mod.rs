@@ -3,10 +3,12 @@
 //! parent despawns everything, and a [`DebugColor`](crate::DebugColor) on it styles the lot.
 
 mod cloth;
+mod ragdoll;
 mod rope;
 mod structure;
 
 pub use cloth::ClothBuilder;
+pub use ragdoll::{HiddenStick, RagdollBuilder, part as ragdoll_part};
 pub use rope::RopeBuilder;
 pub use structure::StructureBuilder;
 

@@ -1,0 +1,147 @@
+//! Shared example code: window, plugins, on-screen help and stats, and a screenshot mode.
+//!
+//! Run any example with `VERLET_SCREENSHOT=out.png` to save a PNG after
+//! `VERLET_SCREENSHOT_FRAMES` frames (default 180) and exit.
+
+use bevy::prelude::*;
+use bevy::render::view::screenshot::{Screenshot, save_to_disk};
+use bevy_verlet_physics::prelude::*;
+
+/// Controls every example shares (handled by `VerletInteractionPlugin`).
+pub const COMMON_CONTROLS: &str =
+    "G gravity | P pause | Enter step (paused) | H hide lines | R reset";
+
+/// An app with a 1280×720 window, the Verlet plugins, and the help and stats overlay.
+pub fn app(title: &str, controls: &str) -> App {
+    let mut app = App::new();
+    app.add_plugins(DefaultPlugins.set(WindowPlugin {
+        primary_window: Some(Window {
+            title: title.to_string(),
+            resolution: (1280, 720).into(),
+            ..default()
+        }),
+        ..default()
+    }))
+    .add_plugins((
+        VerletPlugin::default(),
+        VerletDebugPlugin,
+        VerletInteractionPlugin,
+    ))
+    .insert_resource(ClearColor(Color::srgb(0.08, 0.09, 0.11)))
+    .insert_resource(Help(format!("{title}\n{controls}\n{COMMON_CONTROLS}")))
+    .init_resource::<TornCount>()
+    .add_systems(Startup, spawn_overlay)
+    .add_systems(Update, (count_tears, update_overlay).chain());
+    if let Ok(path) = std::env::var("VERLET_SCREENSHOT") {
+        let frames = std::env::var("VERLET_SCREENSHOT_FRAMES")
+            .ok()
+            .and_then(|f| f.parse().ok())
+            .unwrap_or(180);
+        app.insert_resource(ScreenshotPlan {
+            path,
+            frames,
+            frame: 0,
+        })
+        .add_systems(Update, screenshot);
+    }
+    app
+}
+
+/// Prints the controls to the terminal too.
+pub fn print_controls(app: &App) {
+    println!("{}", app.world().resource::<Help>().0);
+}
+
+#[derive(Resource)]
+struct Help(String);
+
+/// Sticks torn or cut since startup.
+#[derive(Resource, Default)]
+pub struct TornCount(pub u64);
+
+#[derive(Component)]
+struct StatsText;
+
+fn spawn_overlay(mut commands: Commands, help: Res<Help>) {
+    commands.spawn((
+        Text::new(help.0.clone()),
+        TextFont::from_font_size(15.0),
+        TextColor(Color::srgb(0.85, 0.88, 0.92)),
+        Node {
+            position_type: PositionType::Absolute,
+            top: Val::Px(8.0),
+            left: Val::Px(10.0),
+            ..default()
+        },
+    ));
+    commands.spawn((
+        StatsText,
+        Text::new(""),
+        TextFont::from_font_size(15.0),
+        TextColor(Color::srgb(0.6, 0.9, 0.6)),
+        Node {
+            position_type: PositionType::Absolute,
+            bottom: Val::Px(8.0),
+            left: Val::Px(10.0),
+            ..default()
+        },
+    ));
+}
+
+fn count_tears(mut torn: MessageReader<StickTorn>, mut count: ResMut<TornCount>) {
+    count.0 += torn.read().count() as u64;
+}
+
+fn update_overlay(
+    stats: Res<VerletStats>,
+    config: Res<VerletConfig>,
+    gravity: Res<Gravity>,
+    torn: Res<TornCount>,
+    mut text: Query<&mut Text, With<StatsText>>,
+) {
+    let Ok(mut text) = text.single_mut() else {
+        return;
+    };
+    text.0 = format!(
+        "particles {}  sticks {}  torn {}  solver {:.0} µs/step  {} substeps × {} iterations  gravity {}{}",
+        stats.particles,
+        stats.sticks,
+        torn.0,
+        stats.step_micros,
+        config.substeps,
+        config.iterations,
+        if gravity.0 == Vec3::ZERO { "off" } else { "on" },
+        if config.paused { "  [paused]" } else { "" },
+    );
+}
+
+#[derive(Resource)]
+struct ScreenshotPlan {
+    path: String,
+    frames: u32,
+    frame: u32,
+}
+
+fn screenshot(
+    mut plan: ResMut<ScreenshotPlan>,
+    mut commands: Commands,
+    mut exit: MessageWriter<AppExit>,
+) {
+    plan.frame += 1;
+    if plan.frame == plan.frames {
+        commands
+            .spawn(Screenshot::primary_window())
+            .observe(save_to_disk(plan.path.clone()));
+    }
+    if plan.frame == plan.frames + 30 {
+        exit.write(AppExit::Success);
+    }
+}
+
+/// Despawns every composite (and the scene's other entities tagged with `T`) so `setup` can
+/// run again.
+pub fn despawn_all<T: Component>(commands: &mut Commands, composites: &Query<Entity, With<T>>) {
+    for entity in composites {
+        commands.entity(entity).despawn();
+    }
+}

@@ -1,0 +1,274 @@
+//! The examples' scenes, as library functions, so a game or a headless test can spawn exactly
+//! what an example shows.
+//!
+//! 2D scenes are in pixels with the origin at the centre of a 1280 × 720 window and Y up (use
+//! them with [`Gravity::PIXELS`](crate::Gravity::PIXELS)); the 3D scene is in metres.
+
+use crate::builders::{ClothBuilder, Composite, RagdollBuilder, RopeBuilder, StructureBuilder};
+use crate::{AngleConstraint, Particle, Pin, Stick, Stiffness, VerletCollider};
+use bevy::prelude::*;
+
+/// Half the example window (1280 × 720).
+pub const HALF_WINDOW: Vec2 = Vec2::new(640.0, 360.0);
+
+/// The window rectangle as a bounds collider (the seeds' `constrain(stageRect)`).
+pub fn window_bounds(restitution: f32, friction: f32) -> VerletCollider {
+    VerletCollider::bounds_2d(-HALF_WINDOW, HALF_WINDOW)
+        .with_restitution(restitution)
+        .with_friction(friction)
+}
+
+/// verlet-js stiffness `k` (applied 16 times per 60 Hz frame with `stepCoef = 1/16`, each pass
+/// removing `4·k/16` of a stick's error) as a [`Stiffness::Seed`].
+pub fn verlet_js_stiffness(k: f32) -> Stiffness {
+    Stiffness::Seed {
+        stiffness: (k / 4.0).min(1.0),
+        iterations: 16,
+        timestep: 1.0 / 60.0,
+    }
+}
+
+/// Columns, rows and spacing of the [`curtain`].
+pub const CURTAIN: (usize, usize, f32) = (100, 60, 7.0);
+
+/// The Tuts+ "Curtain": a tearable cloth of [`CURTAIN`] particles (the seed's 61 × 41 at 6 px,
+/// larger), top row pinned, tethered so it does not sag, tearing at 150 % strain.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::scenes;
+/// let mut world = World::new();
+/// let curtain = scenes::curtain(&mut world.commands());
+/// assert_eq!(curtain.particles.len(), 6000);
+/// ```
+pub fn curtain(commands: &mut Commands) -> Composite {
+    let (columns, rows, spacing) = CURTAIN;
+    let width = (columns - 1) as f32 * spacing;
+    ClothBuilder::new(Vec3::new(-width / 2.0, 300.0, 0.0), columns, rows, spacing)
+        .pin_top_row(1)
+        .tear_strain(1.5)
+        .tethers(true)
+        .spawn(commands)
+}
+
+/// Ragdoll height (feet to shoulders) in the ragdoll scene.
+pub const RAGDOLL_HEIGHT: f32 = 110.0;
+
+/// The Tuts+ ragdolls: `count` ragdolls standing across the window, with a floor and walls
+/// (friction 0.6). Returns the ragdolls.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::scenes;
+/// let mut world = World::new();
+/// let dolls = scenes::ragdolls(&mut world.commands(), 3);
+/// assert_eq!(dolls.len(), 3);
+/// ```
+pub fn ragdolls(commands: &mut Commands, count: usize) -> Vec<Composite> {
+    commands.spawn((Name::new("Walls"), window_bounds(0.0, 0.6)));
+    (0..count)
+        .map(|i| {
+            let x = -500.0 + 1000.0 * (i as f32 + 0.5) / count.max(1) as f32;
+            // Start in the air, slightly leaning, so they fall and tumble.
+            spawn_ragdoll(
+                commands,
+                Vec3::new(x, -100.0 + 40.0 * (i % 3) as f32, 0.0),
+                i % 2 == 1,
+            )
+        })
+        .collect()
+}
+
+/// One ragdoll of the ragdoll scene with its feet at `feet`.
+pub fn spawn_ragdoll(commands: &mut Commands, feet: Vec3, mirrored: bool) -> Composite {
+    let builder = RagdollBuilder::new(feet, RAGDOLL_HEIGHT).mirrored(mirrored);
+    #[cfg(feature = "gizmos")]
+    let builder = builder.color(Color::hsl((feet.x * 0.37).rem_euclid(360.0), 0.7, 0.7));
+    builder.spawn(commands)
+}
+
+/// The AS3 chapter's structures: a triangle, a square that collapses, a square with a diagonal
+/// brace, and the hinge (triangle base, arm, weight), kept inside the window with bounce.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::scenes;
+/// let mut world = World::new();
+/// assert_eq!(scenes::structures(&mut world.commands()).len(), 4);
+/// ```
+pub fn structures(commands: &mut Commands) -> Vec<Composite> {
+    commands.spawn((Name::new("Window"), window_bounds(0.5, 0.05)));
+    vec![
+        StructureBuilder::triangle(Vec3::new(-480.0, 150.0, 0.0), 120.0).spawn(commands),
+        StructureBuilder::square(Vec3::new(-250.0, 150.0, 0.0), 110.0).spawn(commands),
+        StructureBuilder::braced_square(Vec3::new(-30.0, 150.0, 0.0), 110.0).spawn(commands),
+        StructureBuilder::hinge(Vec3::new(300.0, -360.0, 0.0), 300.0, 400.0, 300.0).spawn(commands),
+    ]
+}
+
+/// The verlet-js "shapes" demo: tires of different stiffness, a slack bridge of line segments
+/// pinned at both ends, and a tree held by angle constraints. Returns `[tires…, bridge, tree]`.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::scenes;
+/// let mut world = World::new();
+/// assert_eq!(scenes::shapes(&mut world.commands()).len(), 5);
+/// ```
+pub fn shapes(commands: &mut Commands) -> Vec<Composite> {
+    commands.spawn((Name::new("Window"), window_bounds(0.0, 0.3)));
+    let mut shapes = vec![
+        // verlet-js: tire(r 50, 30 seg, 0.3, 0.9), (r 70, 7 seg, 0.1, 0.2), (r 70, 3 seg, 1, 1).
+        tire(commands, Vec3::new(-420.0, 150.0, 0.0), 50.0, 30, 0.3, 0.9),
+        tire(commands, Vec3::new(-220.0, 200.0, 0.0), 70.0, 7, 0.1, 0.2),
+        tire(commands, Vec3::new(-30.0, 250.0, 0.0), 70.0, 3, 1.0, 1.0),
+    ];
+    // A slack bridge of line segments pinned at both ends: 20 rigid links with 10 % slack
+    // (verlet-js uses a very soft stiffness, 0.02, for the same sag).
+    let bridge = RopeBuilder::new(
+        Vec3::new(-560.0, -120.0, 0.0),
+        Vec3::new(-80.0, -120.0, 0.0),
+        20,
+    )
+    .pin_start()
+    .pin_end()
+    .spawn(commands);
+    let link = 480.0 / 20.0 * 1.1;
+    for (i, &stick) in bridge.sticks.iter().enumerate() {
+        let slack = Stick::new(bridge.particles[i], bridge.particles[i + 1]).with_rest_length(link);
+        commands.entity(stick).insert(slack);
+    }
+    shapes.push(bridge);
+    shapes.push(tree(commands, Vec3::new(350.0, -340.0, 0.0), 5, 120.0));
+    shapes
+}
+
+/// verlet-js `tire`: a ring of `segments` particles around a centre, tread sticks between
+/// neighbours and to the particle 5 ahead, spokes to the centre, with verlet-js stiffnesses.
+pub fn tire(
+    commands: &mut Commands,
+    center: Vec3,
+    radius: f32,
+    segments: usize,
+    spoke_stiffness: f32,
+    tread_stiffness: f32,
+) -> Composite {
+    let mut points: Vec<Vec3> = (0..segments)
+        .map(|i| {
+            let theta = i as f32 / segments as f32 * std::f32::consts::TAU;
+            center + Vec3::new(theta.cos(), theta.sin(), 0.0) * radius
+        })
+        .collect();
+    points.push(center);
+    let mut builder = StructureBuilder::new(points).stiffness(verlet_js_stiffness(tread_stiffness));
+    for i in 0..segments {
+        builder = builder.stick(i, (i + 1) % segments);
+        if segments > 5 {
+            builder = builder.stick(i, (i + 5) % segments);
+        }
+    }
+    let mut tire = builder.spawn(commands);
+    for i in 0..segments {
+        let spoke = Stick::new(tire.particles[i], tire.particles[segments])
+            .with_stiffness(verlet_js_stiffness(spoke_stiffness));
+        let entity = commands.spawn((spoke, ChildOf(tire.root))).id();
+        tire.sticks.push(entity);
+    }
+    commands.entity(tire.root).insert(tire.clone());
+    tire
+}
+
+/// A tree of `depth` levels grown from `base` (verlet-js tree demo): each branch is a stick,
+/// held at ±30° from its parent by an angle constraint whose compliance grows towards the tips
+/// (stiff trunk, floppy twigs). The trunk's two base particles are pinned.
+pub fn tree(commands: &mut Commands, base: Vec3, depth: usize, trunk: f32) -> Composite {
+    let root = commands.spawn(Name::new("Tree")).id();
+    let mut composite = Composite {
+        root,
+        particles: Vec::new(),
+        sticks: Vec::new(),
+        angles: Vec::new(),
+    };
+    let particle = |commands: &mut Commands, composite: &mut Composite, p: Vec3, pinned: bool| {
+        let mut e = commands.spawn((Particle::new(p), ChildOf(root)));
+        if pinned {
+            e.insert(Pin::at(p));
+        }
+        composite.particles.push(e.id());
+        e.id()
+    };
+    let below = particle(
+        commands,
+        &mut composite,
+        base - Vec3::new(0.0, trunk * 0.3, 0.0),
+        true,
+    );
+    let bottom = particle(commands, &mut composite, base, true);
+    // Breadth-first: (parent particle, its parent, position, direction angle, length, level).
+    let mut stack = vec![(
+        bottom,
+        below,
+        base,
+        std::f32::consts::FRAC_PI_2,
+        trunk,
+        0usize,
+    )];
+    while let Some((start, previous, at, angle, length, level)) = stack.pop() {
+        let end_pos = at + Vec3::new(angle.cos(), angle.sin(), 0.0) * length;
+        let end = particle(commands, &mut composite, end_pos, false);
+        let stick = commands.spawn((Stick::new(start, end), ChildOf(root))).id();
+        composite.sticks.push(stick);
+        // Stiffer near the trunk: compliance grows 10× per level.
+        let compliance = 1e-7 * 10f32.powi(level as i32);
+        let angle_constraint =
+            AngleConstraint::new(previous, start, end).with_compliance(compliance);
+        composite
+            .angles
+            .push(commands.spawn((angle_constraint, ChildOf(root))).id());
+        if level + 1 < depth {
+            for turn in [-std::f32::consts::FRAC_PI_6, std::f32::consts::FRAC_PI_6] {
+                stack.push((end, start, end_pos, angle + turn, length * 0.7, level + 1));
+            }
+        }
+    }
+    commands.entity(root).insert(composite.clone());
+    composite
+}
+
+/// Columns and rows of the 3D cloth.
+pub const CLOTH_3D: (usize, usize, f32) = (40, 40, 0.05);
+
+/// The 3D cloth: [`CLOTH_3D`] particles (2 m square) lying horizontally 1.6 m up, pinned at two
+/// corners, above a sphere of radius 0.5 m on the ground. Returns the cloth.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::scenes;
+/// let mut world = World::new();
+/// let cloth = scenes::cloth_3d(&mut world.commands());
+/// assert_eq!(cloth.particles.len(), 1600);
+/// ```
+pub fn cloth_3d(commands: &mut Commands) -> Composite {
+    let (columns, rows, spacing) = CLOTH_3D;
+    let size = (columns - 1) as f32 * spacing;
+    commands.spawn((
+        Name::new("Sphere"),
+        VerletCollider::sphere(0.5).with_friction(0.3),
+        Transform::from_xyz(0.0, 0.5, 0.0),
+    ));
+    commands.spawn((
+        Name::new("Ground"),
+        VerletCollider::ground(0.0).with_friction(0.5),
+    ));
+    ClothBuilder::new(
+        Vec3::new(-size / 2.0, 1.6, -size / 2.0),
+        columns,
+        rows,
+        spacing,
+    )
+    .axes(Vec3::X, Vec3::Z)
+    .pin_top_corners()
+    .shear(1e-4)
+    .radius(0.01)
+    .spawn(commands)
+}
