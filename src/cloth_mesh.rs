@@ -3,13 +3,15 @@
 
 use crate::Particle;
 use bevy::asset::RenderAssetUsages;
+use bevy::camera::visibility::NoFrustumCulling;
 use bevy::math::Affine3A;
 use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology};
 use bevy::prelude::*;
 
 /// Drives the `Mesh3d` on the same entity from a grid of particles (row-major, as
 /// [`ClothBuilder`](crate::ClothBuilder) spawns them). Create the mesh with
-/// [`ClothMesh::mesh`].
+/// [`ClothMesh::mesh`]. The mesh moves every frame, so the entity gets `NoFrustumCulling`
+/// (its bounding box would otherwise be the one computed at spawn).
 ///
 /// ```
 /// use bevy::prelude::*;
@@ -23,6 +25,7 @@ use bevy::prelude::*;
 /// ```
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Component, Debug)]
+#[require(NoFrustumCulling)]
 pub struct ClothMesh {
     /// Particles per row.
     pub columns: usize,

@@ -114,6 +114,12 @@ impl VerletInteraction {
     pub fn grabbed(&self) -> Option<Entity> {
         self.grabbed.map(|g| g.entity)
     }
+
+    /// The ray from the active camera through the cursor this frame (in 2D its origin is the
+    /// cursor's world position).
+    pub fn cursor_ray(&self) -> Option<Ray3d> {
+        self.cursor_ray
+    }
 }
 
 /// Mouse dragging and cutting, and the keyboard toggles listed in the [module docs](self).
@@ -272,11 +278,14 @@ fn cut(
     config: Res<VerletConfig>,
     mut messages: MessageWriter<StickTorn>,
     mut commands: Commands,
-    mut already_cut: Local<(u64, Vec<usize>)>,
+    mut already_cut: Local<(u64, Vec<bool>)>,
 ) {
     // Sticks cut since the last topology rebuild stay in the solver until then: cut each once.
-    if already_cut.0 != state.generation {
-        *already_cut = (state.generation, Vec::new());
+    let sticks = state.solver.sticks.ends.len();
+    if already_cut.0 != state.generation || already_cut.1.len() != sticks {
+        already_cut.0 = state.generation;
+        already_cut.1.clear();
+        already_cut.1.resize(sticks, false);
     }
     if !buttons.pressed(interaction.cut_button) {
         return;
@@ -295,7 +304,7 @@ fn cut(
     let solver = &state.solver;
     let r2 = interaction.cut_radius * interaction.cut_radius;
     for (i, &[a, b]) in solver.sticks.ends.iter().enumerate() {
-        if solver.sticks.kind[i] == StickKind::Torn || already_cut.1.contains(&i) {
+        if solver.sticks.kind[i] == StickKind::Torn || already_cut.1[i] {
             continue;
         }
         let (pa, pb) = (
@@ -311,7 +320,7 @@ fn cut(
         let Some(stick) = state.stick_entity(i) else {
             continue;
         };
-        already_cut.1.push(i);
+        already_cut.1[i] = true;
         if let Ok(mut entity) = commands.get_entity(stick) {
             if config.despawn_torn_sticks {
                 entity.try_despawn();

@@ -84,3 +84,8 @@ pub mod prelude {
         VerletInteraction, VerletInteractionPlugin,
     };
 }
+
+/// The README's code blocks, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

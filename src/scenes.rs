@@ -87,23 +87,64 @@ pub fn spawn_ragdoll(commands: &mut Commands, feet: Vec3, mirrored: bool) -> Com
     builder.spawn(commands)
 }
 
-/// The AS3 chapter's structures: a triangle, a square that collapses, a square with a diagonal
-/// brace, and the hinge (triangle base, arm, weight), kept inside the window with bounce.
+/// Per-pass stiffness of the AS3 structures scene (the seed's sticks are 1; 0.3 makes the
+/// iteration count visible).
+pub const STRUCTURE_STIFFNESS: f32 = 0.3;
+
+/// The two halves of [`structures`].
+#[derive(Clone, Debug)]
+pub struct StructuresScene {
+    /// Left half: sticks whose stiffness the example re-derives from the iteration count, as in
+    /// the AS3 code (see [`per_pass_stiffness`]).
+    pub per_pass: Vec<Composite>,
+    /// Right half: the same material as one fixed compliance.
+    pub compliant: Vec<Composite>,
+}
+
+/// The stiffness a stick gets in seed-style code that removes `stiffness` of its error per
+/// pass, `iterations` passes per step of `timestep`: stiffer with every extra pass.
+pub fn per_pass_stiffness(stiffness: f32, iterations: u32, timestep: f32) -> Stiffness {
+    Stiffness::Seed {
+        stiffness,
+        iterations,
+        timestep,
+    }
+}
+
+/// The AS3 chapter's structures, twice: a triangle, a square that collapses, a square with a
+/// diagonal brace, and the hinge (triangle base, arm, weight), kept inside the window with
+/// bounce. Both halves start as the same material ([`STRUCTURE_STIFFNESS`] per pass at one
+/// pass per 1/64 s step); the `structures` example re-derives the left half's stiffness from
+/// the iteration count as the seed would, while the right half keeps its compliance.
 ///
 /// ```
 /// use bevy::prelude::*;
 /// use bevy_verlet_physics::scenes;
 /// let mut world = World::new();
-/// assert_eq!(scenes::structures(&mut world.commands()).len(), 4);
+/// let scene = scenes::structures(&mut world.commands());
+/// assert_eq!((scene.per_pass.len(), scene.compliant.len()), (4, 4));
 /// ```
-pub fn structures(commands: &mut Commands) -> Vec<Composite> {
+pub fn structures(commands: &mut Commands) -> StructuresScene {
     commands.spawn((Name::new("Window"), window_bounds(0.5, 0.05)));
-    vec![
-        StructureBuilder::triangle(Vec3::new(-480.0, 150.0, 0.0), 120.0).spawn(commands),
-        StructureBuilder::square(Vec3::new(-250.0, 150.0, 0.0), 110.0).spawn(commands),
-        StructureBuilder::braced_square(Vec3::new(-30.0, 150.0, 0.0), 110.0).spawn(commands),
-        StructureBuilder::hinge(Vec3::new(300.0, -360.0, 0.0), 300.0, 400.0, 300.0).spawn(commands),
+    let material = per_pass_stiffness(STRUCTURE_STIFFNESS, 1, 1.0 / 64.0);
+    StructuresScene {
+        per_pass: structure_set(commands, -630.0, material),
+        compliant: structure_set(commands, 10.0, material),
+    }
+}
+
+/// One half of [`structures`], starting at `left` (pixels).
+fn structure_set(commands: &mut Commands, left: f32, stiffness: Stiffness) -> Vec<Composite> {
+    let floor = -HALF_WINDOW.y;
+    [
+        StructureBuilder::triangle(Vec3::new(left + 70.0, 150.0, 0.0), 90.0),
+        StructureBuilder::square(Vec3::new(left + 190.0, 180.0, 0.0), 80.0),
+        StructureBuilder::braced_square(Vec3::new(left + 310.0, 120.0, 0.0), 80.0),
+        StructureBuilder::hinge(Vec3::new(left + 450.0, floor, 0.0), 140.0, 240.0, 140.0),
     ]
+    .into_iter()
+    .map(|builder| builder.stiffness(stiffness).spawn(commands))
+    .collect()
 }
 
 /// The verlet-js "shapes" demo: tires of different stiffness, a slack bridge of line segments
@@ -218,8 +259,9 @@ pub fn tree(commands: &mut Commands, base: Vec3, depth: usize, trunk: f32) -> Co
         let end = particle(commands, &mut composite, end_pos, false);
         let stick = commands.spawn((Stick::new(start, end), ChildOf(root))).id();
         composite.sticks.push(stick);
-        // Stiffer near the trunk: compliance grows 10× per level.
-        let compliance = 1e-7 * 10f32.powi(level as i32);
+        // Stiffer near the trunk: compliance grows 4× per level (in pixel units a twig's
+        // torque is ~3·10⁴, so the tips bend by ~10⁻² rad and sway when touched).
+        let compliance = 1e-9 * 4f32.powi(level as i32);
         let angle_constraint =
             AngleConstraint::new(previous, start, end).with_compliance(compliance);
         composite

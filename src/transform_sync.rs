@@ -2,7 +2,6 @@
 //! `Transform`s every frame.
 
 use crate::Particle;
-use crate::state::VerletState;
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
 
@@ -55,7 +54,6 @@ fn follow(
     particles: Query<&Particle>,
     mut followers: Query<(&FollowParticle, &mut Transform), Without<FollowStick>>,
     mut sticks: Query<(&FollowStick, &mut Transform), Without<FollowParticle>>,
-    _state: Res<VerletState>,
 ) {
     let fraction = time.overstep_fraction();
     for (follow, mut transform) in &mut followers {

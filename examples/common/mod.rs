@@ -2,6 +2,7 @@
 //!
 //! Run any example with `VERLET_SCREENSHOT=out.png` to save a PNG after
 //! `VERLET_SCREENSHOT_FRAMES` frames (default 180) and exit.
+#![allow(dead_code)] // each example uses a subset
 
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
@@ -45,6 +46,11 @@ pub fn app(title: &str, controls: &str) -> App {
         .add_systems(Update, screenshot);
     }
     app
+}
+
+/// Whether the example runs in screenshot mode (`VERLET_SCREENSHOT` set).
+pub fn screenshot_mode() -> bool {
+    std::env::var_os("VERLET_SCREENSHOT").is_some()
 }
 
 /// Prints the controls to the terminal too.
@@ -138,10 +144,38 @@ fn screenshot(
     }
 }
 
-/// Despawns every composite (and the scene's other entities tagged with `T`) so `setup` can
-/// run again.
-pub fn despawn_all<T: Component>(commands: &mut Commands, composites: &Query<Entity, With<T>>) {
-    for entity in composites {
-        commands.entity(entity).despawn();
+/// Marks an example's own scene entities (sprites, meshes, lights…) so a reset removes them.
+#[derive(Component)]
+pub struct SceneEntity;
+
+/// The function that spawns an example's scene.
+#[derive(Resource)]
+struct SceneSpawner(fn(&mut Commands));
+
+/// Spawns the scene at startup and again on every [`ResetRequested`] (R), after despawning
+/// every composite, collider and [`SceneEntity`].
+pub fn add_scene(app: &mut App, spawn: fn(&mut Commands)) {
+    app.insert_resource(SceneSpawner(spawn))
+        .add_systems(
+            Startup,
+            |mut commands: Commands, spawner: Res<SceneSpawner>| (spawner.0)(&mut commands),
+        )
+        .add_systems(Update, reset_scene);
+}
+
+type SceneFilter = Or<(With<Composite>, With<VerletCollider>, With<SceneEntity>)>;
+
+fn reset_scene(
+    mut requests: MessageReader<ResetRequested>,
+    spawner: Res<SceneSpawner>,
+    scene: Query<Entity, SceneFilter>,
+    mut commands: Commands,
+) {
+    if requests.read().count() == 0 {
+        return;
     }
+    for entity in &scene {
+        commands.entity(entity).try_despawn();
+    }
+    (spawner.0)(&mut commands);
 }

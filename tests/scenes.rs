@@ -1,0 +1,226 @@
+//! The examples' scenes (built by `bevy_verlet_physics::scenes`, exactly as the examples spawn
+//! them) stepped headless: they hang, fall and settle as they should, with no NaN.
+
+mod common;
+use bevy::prelude::*;
+use bevy_verlet_physics::builders::ragdoll_part::*;
+use bevy_verlet_physics::prelude::*;
+use bevy_verlet_physics::scenes::{self, HALF_WINDOW};
+use common::*;
+
+/// A headless app in pixel units, like the 2D examples.
+fn pixel_app() -> App {
+    let mut app = app();
+    app.insert_resource(Gravity::PIXELS);
+    app
+}
+
+fn positions(app: &App, entities: &[Entity]) -> Vec<Vec3> {
+    entities.iter().map(|&e| position(app, e)).collect()
+}
+
+fn torn_count(app: &mut App) -> usize {
+    let messages = app.world().resource::<Messages<StickTorn>>();
+    messages.iter_current_update_messages().count()
+}
+
+#[test]
+fn curtain_hangs_with_its_pinned_row_still_and_does_not_tear_by_itself() {
+    let mut app = pixel_app();
+    let curtain = spawn(&mut app, scenes::curtain);
+    let (columns, rows, _) = scenes::CURTAIN;
+    let top = &curtain.particles[..columns];
+    let pinned = positions(&app, top);
+    let bottom_start = position(&app, curtain.particles[(rows - 1) * columns + columns / 2]);
+    let mut torn = 0;
+    for _ in 0..128 {
+        step(&mut app, 1);
+        torn += torn_count(&mut app);
+        assert_eq!(positions(&app, top), pinned, "the pinned row moved");
+    }
+    assert!(all_finite(&mut app));
+    assert_eq!(torn, 0, "the curtain tore under its own weight");
+    assert_eq!(
+        count::<Particle>(&mut app),
+        columns * rows,
+        "particles lost"
+    );
+    // Tethered: hanging for 2 s, the bottom edge sags less than half a link.
+    let bottom = position(&app, curtain.particles[(rows - 1) * columns + columns / 2]);
+    let sag = bottom_start.y - bottom.y;
+    assert!(sag.abs() < 3.5, "bottom edge moved by {sag} px");
+    let strain = max_strain(&mut app);
+    assert!(strain < 0.02, "max strain {strain}");
+}
+
+#[test]
+fn ragdolls_fall_settle_on_the_floor_and_keep_their_limb_lengths() {
+    let mut app = pixel_app();
+    let dolls = spawn(&mut app, |c| scenes::ragdolls(c, 3));
+    let rest: Vec<Vec<f32>> = dolls
+        .iter()
+        .map(|d| bone_lengths(&positions(&app, &d.particles)))
+        .collect();
+    let start_head: Vec<f32> = dolls
+        .iter()
+        .map(|d| position(&app, d.particles[HEAD]).y)
+        .collect();
+    // 6 s: fall, crumple, settle.
+    step(&mut app, 64 * 6);
+    assert!(all_finite(&mut app));
+    let floor = -HALF_WINDOW.y;
+    for (i, doll) in dolls.iter().enumerate() {
+        let now = positions(&app, &doll.particles);
+        // It fell: the head is lower than where it started.
+        assert!(
+            now[HEAD].y < start_head[i] - 20.0,
+            "ragdoll {i} did not fall"
+        );
+        // On the floor, not through it (the head's radius keeps it above).
+        for (k, p) in now.iter().enumerate() {
+            assert!(
+                p.y >= floor - 0.5,
+                "ragdoll {i} particle {k} below floor: {p}"
+            );
+            assert!(
+                p.x.abs() <= HALF_WINDOW.x + 0.5,
+                "ragdoll {i} outside the walls"
+            );
+        }
+        let lowest = now.iter().map(|p| p.y).fold(f32::MAX, f32::min);
+        assert!(
+            lowest < floor + 5.0,
+            "ragdoll {i} is not resting on the floor"
+        );
+        // Every bone within 2 % of its length.
+        for (bone, (&l, &l0)) in bone_lengths(&now).iter().zip(&rest[i]).enumerate() {
+            assert!(
+                (l / l0 - 1.0).abs() < 0.02,
+                "ragdoll {i} bone {bone}: {l} vs {l0}"
+            );
+        }
+    }
+    // Settled: one more second barely moves anything.
+    let before: Vec<Vec<Vec3>> = dolls
+        .iter()
+        .map(|d| positions(&app, &d.particles))
+        .collect();
+    step(&mut app, 64);
+    for (doll, before) in dolls.iter().zip(&before) {
+        for (now, then) in positions(&app, &doll.particles).iter().zip(before) {
+            assert!(now.distance(*then) < 2.0, "still moving: {then} → {now}");
+        }
+    }
+}
+
+/// Lengths of the rigid bones (head–shoulder, arms, legs).
+fn bone_lengths(p: &[Vec3]) -> Vec<f32> {
+    [
+        (HEAD, SHOULDER),
+        (SHOULDER, LEFT_ELBOW),
+        (LEFT_ELBOW, LEFT_HAND),
+        (SHOULDER, RIGHT_ELBOW),
+        (RIGHT_ELBOW, RIGHT_HAND),
+        (PELVIS, LEFT_KNEE),
+        (LEFT_KNEE, LEFT_FOOT),
+        (PELVIS, RIGHT_KNEE),
+        (RIGHT_KNEE, RIGHT_FOOT),
+    ]
+    .iter()
+    .map(|&(a, b)| p[a].distance(p[b]))
+    .collect()
+}
+
+#[test]
+fn structures_stay_in_the_window_and_the_braced_square_keeps_its_shape() {
+    let mut app = pixel_app();
+    app.insert_resource(VerletConfig::seed_style(8));
+    let scene = spawn(&mut app, scenes::structures);
+    let braced = &scene.compliant[2];
+    let diagonal = |app: &App| {
+        let p = positions(app, &braced.particles);
+        (p[0].distance(p[2]), p[1].distance(p[3]))
+    };
+    let (d02, d13) = diagonal(&app);
+    step(&mut app, 64 * 5);
+    assert!(all_finite(&mut app));
+    for composite in scene.per_pass.iter().chain(&scene.compliant) {
+        for p in positions(&app, &composite.particles) {
+            assert!(
+                p.x.abs() <= HALF_WINDOW.x + 0.5 && p.y.abs() <= HALF_WINDOW.y + 0.5,
+                "{p} left the window"
+            );
+        }
+    }
+    // The braced square's two diagonals: the braced one is a stick, and the other is held by
+    // the triangles, so both stay close to their lengths (the unbraced square has no such
+    // guarantee: it collapses).
+    let (n02, n13) = diagonal(&app);
+    assert!(
+        (n02 / d02 - 1.0).abs() < 0.05,
+        "braced diagonal {n02} vs {d02}"
+    );
+    assert!(
+        (n13 / d13 - 1.0).abs() < 0.05,
+        "other diagonal {n13} vs {d13}"
+    );
+}
+
+#[test]
+fn shapes_bridge_and_tree_hold_their_pins() {
+    let mut app = pixel_app();
+    let shapes = spawn(&mut app, scenes::shapes);
+    let bridge = &shapes[3];
+    let tree = &shapes[4];
+    let ends = |app: &App| {
+        let p = positions(app, &bridge.particles);
+        (p[0], p[p.len() - 1])
+    };
+    let bridge_ends = ends(&app);
+    let tree_base = positions(&app, &tree.particles[..2]);
+    let tree_tip_start = position(&app, *tree.particles.last().unwrap());
+    step(&mut app, 64 * 4);
+    assert!(all_finite(&mut app));
+    assert_eq!(ends(&app), bridge_ends);
+    assert_eq!(positions(&app, &tree.particles[..2]), tree_base);
+    // The bridge sags (10 % slack) below its pins.
+    let middle = position(&app, bridge.particles[bridge.particles.len() / 2]);
+    assert!(
+        middle.y < bridge_ends.0.y - 40.0,
+        "bridge middle at {middle}"
+    );
+    // The tree stands: angle constraints keep its tip within a branch length of where it was.
+    let tip = position(&app, *tree.particles.last().unwrap());
+    assert!(
+        tip.y > tree_base[1].y + 100.0,
+        "the tree fell over: tip at {tip}"
+    );
+    assert!(
+        tip.distance(tree_tip_start) < 60.0,
+        "tip moved {tip_start} → {tip}",
+        tip_start = tree_tip_start
+    );
+}
+
+#[test]
+fn cloth_3d_drapes_over_the_sphere_without_passing_through() {
+    let mut app = app();
+    let cloth = spawn(&mut app, scenes::cloth_3d);
+    let corners = [cloth.particles[0], cloth.particles[scenes::CLOTH_3D.0 - 1]];
+    let pinned = positions(&app, &corners);
+    let centre = Vec3::new(0.0, 0.5, 0.0);
+    let mut touched = false;
+    for _ in 0..64 * 3 {
+        step(&mut app, 1);
+        assert_eq!(positions(&app, &corners), pinned);
+        for p in positions(&app, &cloth.particles) {
+            let d = p.distance(centre);
+            // Particle radius 0.01 m: its centre stays 0.01 m outside the sphere.
+            assert!(d > 0.5 + 0.01 - 1e-3, "particle inside the sphere: {d}");
+            assert!(p.y > 0.01 - 1e-3, "particle below the ground: {p}");
+            touched |= d < 0.52;
+        }
+    }
+    assert!(touched, "the cloth never reached the sphere");
+    assert!(all_finite(&mut app));
+}
