@@ -10,7 +10,7 @@ use bevy_verlet_physics::scenes;
 
 fn main() {
     let mut app = common::app(
-        "cloth — tearable curtain",
+        "cloth - tearable curtain",
         "left drag: pull the cloth (release to throw) | right drag: tear | pull hard and it rips",
     );
     // The scene is in pixels: g = 980 px/s².
@@ -30,7 +30,12 @@ fn main() {
 }
 
 /// Screenshot mode only: rips a slanted slit through the curtain, as a right-drag would.
-fn scripted_cut(mut frame: Local<u32>, state: Res<VerletState>, mut commands: Commands) {
+fn scripted_cut(
+    mut frame: Local<u32>,
+    state: Res<VerletState>,
+    mut torn: MessageWriter<StickTorn>,
+    mut commands: Commands,
+) {
     *frame += 1;
     if *frame != 60 {
         return;
@@ -42,6 +47,16 @@ fn scripted_cut(mut frame: Local<u32>, state: Res<VerletState>, mut commands: Co
         let on_slit = (mid.x - (80.0 + 0.5 * (mid.y + 120.0))).abs() < 4.0 && mid.y < 120.0;
         if on_slit && let Some(stick) = state.stick_entity(i) {
             commands.entity(stick).despawn();
+            torn.write(StickTorn {
+                stick,
+                particles: [a, b].map(|p| {
+                    state
+                        .particle_entity(p as usize)
+                        .unwrap_or(Entity::PLACEHOLDER)
+                }),
+                position: mid.as_vec3(),
+                strain: 0.0,
+            });
         }
     }
 }

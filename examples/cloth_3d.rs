@@ -13,7 +13,7 @@ use bevy_verlet_physics::scenes::{self, CLOTH_3D};
 
 fn main() {
     let mut app = common::app(
-        "cloth_3d — cloth on a sphere",
+        "cloth_3d - cloth on a sphere",
         "M: mesh / lines / both | left drag: pull the cloth | right drag: cut",
     );
     // Metres: default gravity (9.81 m/s²) and grab radii in metres.

@@ -24,6 +24,9 @@ fn main() {
             commands.spawn(Camera2d);
         })
         .add_systems(Update, (spawn_on_click, dress_ragdolls, toggle_sprites));
+    if common::screenshot_mode() {
+        app.add_systems(Update, scripted_drops);
+    }
     // Five ragdolls standing across the window, with walls and a floor.
     common::add_scene(&mut app, |commands| {
         scenes::ragdolls(commands, 5);
@@ -46,6 +49,15 @@ fn spawn_on_click(
         *count += 1;
         let feet = ray.origin.with_z(0.0) - Vec3::Y * scenes::RAGDOLL_HEIGHT * 0.6;
         scenes::spawn_ragdoll(&mut commands, feet, *count % 2 == 0);
+    }
+}
+
+/// Screenshot mode only: drops three more ragdolls, as clicks would.
+fn scripted_drops(mut frame: Local<u32>, mut commands: Commands) {
+    *frame += 1;
+    if let Some(i) = [20, 45, 70].iter().position(|&f| f == *frame) {
+        let feet = Vec3::new(-300.0 + 280.0 * i as f32, 120.0, 0.0);
+        scenes::spawn_ragdoll(&mut commands, feet, i % 2 == 0);
     }
 }
 

@@ -11,7 +11,7 @@ use bevy_verlet_physics::scenes;
 
 fn main() {
     let mut app = common::app(
-        "shapes — verlet-js",
+        "shapes - verlet-js",
         "left drag: grab a tire, the bridge or a branch (release to throw) | right drag: cut",
     );
     app.insert_resource(Gravity::PIXELS)

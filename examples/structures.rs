@@ -16,14 +16,18 @@ use bevy_verlet_physics::scenes::{self, STRUCTURE_STIFFNESS, StructuresScene};
 
 fn main() {
     let mut app = common::app(
-        "structures — AS3 Verlet chapter",
-        "Up / Down: iterations ×2 / ÷2 | S: 1 ↔ 8 substeps | left drag: throw a structure",
+        "structures - AS3 Verlet chapter",
+        "Up / Down: iterations x2 / /2 | S: 1 <-> 8 substeps | left drag: throw a structure",
     );
     // The seeds' setting: one step per frame, iterations are the only accuracy knob.
     app.insert_resource(Gravity::PIXELS)
         .insert_resource(VerletConfig::seed_style(1))
         .add_systems(Startup, (camera_and_labels,))
         .add_systems(Update, (keys, per_pass_stiffness).chain());
+    if common::screenshot_mode() {
+        // Show the difference: at 16 iterations the left half is stiff, the right is not.
+        app.insert_resource(VerletConfig::seed_style(16));
+    }
     common::add_scene(&mut app, |commands| {
         let scene = scenes::structures(commands);
         commands.insert_resource(Halves(scene));
@@ -52,7 +56,7 @@ fn camera_and_labels(mut commands: Commands) {
             Text2d::new(label),
             TextFont::from_font_size(16.0),
             TextColor(Color::srgb(0.9, 0.8, 0.5)),
-            Transform::from_xyz(x, 300.0, 0.0),
+            Transform::from_xyz(x, 250.0, 0.0),
         ));
     }
 }

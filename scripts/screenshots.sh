@@ -22,6 +22,8 @@ fi
 
 examples=("$@")
 [ ${#examples[@]} -gt 0 ] || examples=(cloth ragdoll structures shapes cloth_3d)
+# Frames before the screenshot, per example (llvmpipe draws ~30 frames/s).
+declare -A frames=([cloth]=150 [ragdoll]=85 [structures]=150 [shapes]=150 [cloth_3d]=150)
 
 flag=()
 [ "$PROFILE" = release ] && flag=(--release)
@@ -32,8 +34,7 @@ for name in "${examples[@]}"; do
     out="$PWD/assets/screenshots/$name.png"
     rm -f "$out"
     echo "== $name → $out"
-    # Frame count: llvmpipe renders ~10–30 frames/s, so 180 frames is a few seconds of play.
-    VERLET_SCREENSHOT="$out" VERLET_SCREENSHOT_FRAMES="${FRAMES:-180}" \
+    VERLET_SCREENSHOT="$out" VERLET_SCREENSHOT_FRAMES="${FRAMES:-${frames[$name]:-150}}" \
         timeout 300 xvfb-run -a -s "-screen 0 1280x720x24" \
         "$CARGO_TARGET_DIR/$PROFILE/examples/$name" || true
     [ -s "$out" ] || { echo "no screenshot for $name" >&2; exit 1; }

@@ -38,6 +38,8 @@ pub struct VerletGizmos {
     pub strain_scale: f32,
     /// Draw circles as spheres (3D scenes).
     pub spheres: bool,
+    /// Colour of bounds and sphere colliders (`None` = not drawn; planes are never drawn).
+    pub collider_color: Option<Color>,
 }
 
 impl Default for VerletGizmos {
@@ -51,6 +53,7 @@ impl Default for VerletGizmos {
             strain_colors: false,
             strain_scale: 0.1,
             spheres: false,
+            collider_color: Some(Color::srgb(0.35, 0.38, 0.45)),
         }
     }
 }
@@ -187,6 +190,50 @@ fn draw(
             } else {
                 gizmos.circle(Isometry3d::from_translation(center), radius, color);
             }
+        }
+    }
+    if let Some(color) = style.collider_color {
+        draw_colliders(&mut gizmos, &solver.colliders, style.spheres, color);
+    }
+}
+
+/// Bounds as rectangles (2D: infinite depth) or boxes, spheres as circles or spheres.
+fn draw_colliders(
+    gizmos: &mut Gizmos<VerletGizmos>,
+    colliders: &[crate::solver::Collider],
+    spheres: bool,
+    color: Color,
+) {
+    use crate::solver::Shape;
+    for collider in colliders {
+        match collider.shape {
+            Shape::Inside { min, max } => {
+                let (min, max) = (min.as_vec3(), max.as_vec3());
+                if !(min.x.is_finite()
+                    && max.x.is_finite()
+                    && min.y.is_finite()
+                    && max.y.is_finite())
+                {
+                    continue;
+                }
+                let center = (min + max) * 0.5;
+                if min.z.is_finite() && max.z.is_finite() {
+                    let transform = Transform::from_translation(center).with_scale(max - min);
+                    gizmos.cube(transform, color);
+                } else {
+                    let isometry = Isometry3d::from_translation(center.with_z(0.0));
+                    gizmos.rect(isometry, (max - min).truncate(), color);
+                }
+            }
+            Shape::Sphere { center, radius } => {
+                let isometry = Isometry3d::from_translation(center.as_vec3());
+                if spheres {
+                    gizmos.sphere(isometry, radius as f32, color);
+                } else {
+                    gizmos.circle(isometry, radius as f32, color);
+                }
+            }
+            Shape::Plane { .. } => {}
         }
     }
 }

@@ -11,9 +11,14 @@ use bevy::prelude::*;
 /// Half the example window (1280 × 720).
 pub const HALF_WINDOW: Vec2 = Vec2::new(640.0, 360.0);
 
-/// The window rectangle as a bounds collider (the seeds' `constrain(stageRect)`).
+/// Floor of the 2D scenes: 60 px above the window's bottom edge, leaving a strip for the
+/// examples' status line.
+pub const FLOOR_Y: f32 = -300.0;
+
+/// The window rectangle (down to [`FLOOR_Y`]) as a bounds collider (the seeds'
+/// `constrain(stageRect)`).
 pub fn window_bounds(restitution: f32, friction: f32) -> VerletCollider {
-    VerletCollider::bounds_2d(-HALF_WINDOW, HALF_WINDOW)
+    VerletCollider::bounds_2d(Vec2::new(-HALF_WINDOW.x, FLOOR_Y), HALF_WINDOW)
         .with_restitution(restitution)
         .with_friction(friction)
 }
@@ -44,7 +49,7 @@ pub const CURTAIN: (usize, usize, f32) = (100, 60, 7.0);
 pub fn curtain(commands: &mut Commands) -> Composite {
     let (columns, rows, spacing) = CURTAIN;
     let width = (columns - 1) as f32 * spacing;
-    ClothBuilder::new(Vec3::new(-width / 2.0, 300.0, 0.0), columns, rows, spacing)
+    ClothBuilder::new(Vec3::new(-width / 2.0, 250.0, 0.0), columns, rows, spacing)
         .pin_top_row(1)
         .tear_strain(1.5)
         .tethers(true)
@@ -125,7 +130,7 @@ pub fn per_pass_stiffness(stiffness: f32, iterations: u32, timestep: f32) -> Sti
 /// assert_eq!((scene.per_pass.len(), scene.compliant.len()), (4, 4));
 /// ```
 pub fn structures(commands: &mut Commands) -> StructuresScene {
-    commands.spawn((Name::new("Window"), window_bounds(0.5, 0.05)));
+    commands.spawn((Name::new("Window"), window_bounds(0.3, 0.5)));
     let material = per_pass_stiffness(STRUCTURE_STIFFNESS, 1, 1.0 / 64.0);
     StructuresScene {
         per_pass: structure_set(commands, -630.0, material),
@@ -135,12 +140,13 @@ pub fn structures(commands: &mut Commands) -> StructuresScene {
 
 /// One half of [`structures`], starting at `left` (pixels).
 fn structure_set(commands: &mut Commands, left: f32, stiffness: Stiffness) -> Vec<Composite> {
-    let floor = -HALF_WINDOW.y;
+    // The hinge's base is twice as wide as its arm is long (the seed's spans the stage), so
+    // the swinging weight cannot tip it over.
     [
-        StructureBuilder::triangle(Vec3::new(left + 70.0, 150.0, 0.0), 90.0),
-        StructureBuilder::square(Vec3::new(left + 190.0, 180.0, 0.0), 80.0),
-        StructureBuilder::braced_square(Vec3::new(left + 310.0, 120.0, 0.0), 80.0),
-        StructureBuilder::hinge(Vec3::new(left + 450.0, floor, 0.0), 140.0, 240.0, 140.0),
+        StructureBuilder::triangle(Vec3::new(left + 60.0, 150.0, 0.0), 80.0),
+        StructureBuilder::square(Vec3::new(left + 160.0, 180.0, 0.0), 70.0),
+        StructureBuilder::braced_square(Vec3::new(left + 260.0, 120.0, 0.0), 70.0),
+        StructureBuilder::hinge(Vec3::new(left + 470.0, FLOOR_Y, 0.0), 280.0, 260.0, 130.0),
     ]
     .into_iter()
     .map(|builder| builder.stiffness(stiffness).spawn(commands))
@@ -180,7 +186,12 @@ pub fn shapes(commands: &mut Commands) -> Vec<Composite> {
         commands.entity(stick).insert(slack);
     }
     shapes.push(bridge);
-    shapes.push(tree(commands, Vec3::new(350.0, -340.0, 0.0), 5, 120.0));
+    shapes.push(tree(
+        commands,
+        Vec3::new(350.0, FLOOR_Y + 45.0, 0.0),
+        5,
+        105.0,
+    ));
     shapes
 }
 

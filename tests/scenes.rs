@@ -5,7 +5,7 @@ mod common;
 use bevy::prelude::*;
 use bevy_verlet_physics::builders::ragdoll_part::*;
 use bevy_verlet_physics::prelude::*;
-use bevy_verlet_physics::scenes::{self, HALF_WINDOW};
+use bevy_verlet_physics::scenes::{self, FLOOR_Y, HALF_WINDOW};
 use common::*;
 
 /// A headless app in pixel units, like the 2D examples.
@@ -68,7 +68,7 @@ fn ragdolls_fall_settle_on_the_floor_and_keep_their_limb_lengths() {
     // 6 s: fall, crumple, settle.
     step(&mut app, 64 * 6);
     assert!(all_finite(&mut app));
-    let floor = -HALF_WINDOW.y;
+    let floor = FLOOR_Y;
     for (i, doll) in dolls.iter().enumerate() {
         let now = positions(&app, &doll.particles);
         // It fell: the head is lower than where it started.
@@ -147,7 +147,9 @@ fn structures_stay_in_the_window_and_the_braced_square_keeps_its_shape() {
     for composite in scene.per_pass.iter().chain(&scene.compliant) {
         for p in positions(&app, &composite.particles) {
             assert!(
-                p.x.abs() <= HALF_WINDOW.x + 0.5 && p.y.abs() <= HALF_WINDOW.y + 0.5,
+                p.x.abs() <= HALF_WINDOW.x + 0.5
+                    && p.y >= FLOOR_Y - 0.5
+                    && p.y <= HALF_WINDOW.y + 0.5,
                 "{p} left the window"
             );
         }

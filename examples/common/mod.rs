@@ -13,6 +13,8 @@ pub const COMMON_CONTROLS: &str =
     "G gravity | P pause | Enter step (paused) | H hide lines | R reset";
 
 /// An app with a 1280×720 window, the Verlet plugins, and the help and stats overlay.
+///
+/// Bevy's default font covers ASCII only: keep `title` and `controls` ASCII.
 pub fn app(title: &str, controls: &str) -> App {
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(WindowPlugin {
@@ -109,7 +111,7 @@ fn update_overlay(
         return;
     };
     text.0 = format!(
-        "particles {}  sticks {}  torn {}  solver {:.0} µs/step  {} substeps × {} iterations  gravity {}{}",
+        "particles {}  sticks {}  torn {}  solver {:.0} us/step  {} substeps x {} iterations  gravity {}{}",
         stats.particles,
         stats.sticks,
         torn.0,
