@@ -9,7 +9,8 @@ use bevy::prelude::*;
 #[reflect(Debug, Clone)]
 pub enum ColliderShape {
     /// Keeps particles inside the box `min..=max` (the seeds' window rectangle; use
-    /// `f32::INFINITY` to leave an axis free).
+    /// `f32::INFINITY` to leave an axis free). A box with `min > max` on an axis is empty and
+    /// ignored with a warning; a box smaller than a particle keeps it at the box's centre.
     Bounds {
         /// Lower corner.
         min: Vec3,
@@ -113,6 +114,14 @@ impl VerletCollider {
             ColliderShape::Bounds { min, max } => {
                 if min.is_nan() || max.is_nan() {
                     return Err("bounds with a NaN corner");
+                }
+                // An empty box (min > max, or a side at the wrong infinity) has no inside to
+                // keep a particle in.
+                if min.cmpgt(max).any()
+                    || min.cmpeq(Vec3::INFINITY).any()
+                    || max.cmpeq(Vec3::NEG_INFINITY).any()
+                {
+                    return Err("bounds with min > max on an axis (an empty box)");
                 }
                 Shape::Inside {
                     min: min.as_dvec3() + offset,

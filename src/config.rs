@@ -124,4 +124,8 @@ pub struct VerletStats {
     pub rebuilds: u64,
     /// Wall time of the last fixed step's solve (gather, substeps, tear, scatter), in µs.
     pub step_micros: f32,
+    /// Particles put back at their last position since startup because their state diverged
+    /// in a step (became NaN, infinite or beyond `f32`'s range; each is also warned about
+    /// once). `0` in a healthy scene.
+    pub diverged: u64,
 }

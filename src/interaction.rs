@@ -32,7 +32,8 @@ pub struct ResetRequested;
 ///
 /// ```
 /// use bevy_verlet_physics::prelude::*;
-/// let interaction = VerletInteraction { grab_radius: 0.2, cut_radius: 0.05, ..Default::default() };
+/// let mut interaction = VerletInteraction::metres();
+/// interaction.cut_radius = 0.02;
 /// assert!(interaction.hovered().is_none());
 /// ```
 #[derive(Resource, Clone, Debug)]
@@ -250,11 +251,11 @@ fn drag(
     };
     if buttons.just_released(interaction.drag_button) {
         interaction.grabbed = None;
-        if let Ok(mut entity) = commands.get_entity(grab.entity) {
-            if grab.original_pin.is_none() {
-                // Released: it keeps the pin's last velocity, i.e. the cursor's.
-                entity.try_remove::<Pin>();
-            }
+        if grab.original_pin.is_none()
+            && let Ok(mut entity) = commands.get_entity(grab.entity)
+        {
+            // Released: it keeps the pin's last velocity, i.e. the cursor's.
+            entity.try_remove::<Pin>();
         }
         return;
     }

@@ -27,8 +27,12 @@ pub(crate) enum Problem {
     Compliance,
     TearStrain,
     PinTarget,
+    PinWithoutParticle,
     Collider,
     Angle,
+    Gravity,
+    Damping,
+    Diverged,
 }
 
 /// The solver core and its entity bookkeeping (a resource).
@@ -68,6 +72,11 @@ pub struct VerletState {
     pub(crate) render_current: Vec<Vec3>,
     /// Sticks torn in the last step that the ECS has not removed yet.
     pub(crate) torn_pending: usize,
+    /// How many `Particle`, `Stick`, `AngleConstraint`, `Pin` and `Tethered` components existed
+    /// when topology changes were last checked. A removal the removal buffers no longer hold
+    /// (they are cleared every frame, and frames that run no fixed step are common above 64 fps)
+    /// still shows up as a changed count.
+    pub(crate) component_counts: [usize; 5],
     warned: HashSet<(Entity, Problem)>,
     scratch: Particles,
 }
@@ -132,6 +141,31 @@ impl VerletState {
             0.0
         };
         (inverse_mass, radius)
+    }
+
+    /// Validated XPBD compliance of a stick or angle constraint (with warnings): NaN or negative
+    /// → rigid (`Some(0)`); `+∞` (no stiffness at all) → `None`, the constraint is left out.
+    fn compliance(
+        &mut self,
+        entity: Entity,
+        what: &'static str,
+        stiffness: crate::Stiffness,
+        w: f64,
+    ) -> Option<f64> {
+        let compliance = stiffness.compliance(w);
+        if compliance.is_finite() && compliance >= 0.0 {
+            Some(compliance)
+        } else if compliance == f64::INFINITY {
+            self.warn(entity, Problem::Compliance, || {
+                format!("{what} stiffness {stiffness:?} gives an infinite compliance (no stiffness); the constraint is ignored")
+            });
+            None
+        } else {
+            self.warn(entity, Problem::Compliance, || {
+                format!("{what} stiffness {stiffness:?} gives compliance {compliance} (NaN or negative); using rigid")
+            });
+            Some(0.0)
+        }
     }
 
     /// The solver state `(x, x*)` a component asks for: its velocity
@@ -268,20 +302,19 @@ impl VerletState {
                 w = 0.0;
             }
             let acceleration = if w > 0.0 { inputs.gravity } else { DVec3::ZERO };
-            let carried = old_slots
-                .get(&entity)
-                .filter(|_| !particle.is_changed())
-                .map(|&old| {
-                    (
-                        self.scratch.position[old as usize],
-                        self.scratch.previous[old as usize],
-                    )
-                });
-            let state = match carried {
-                Some(state) => Some(state),
-                None => {
-                    self.state_from_component(entity, &particle, acceleration, inputs.dt, inputs.h)
-                }
+            let old_state = old_slots.get(&entity).map(|&old| {
+                (
+                    self.scratch.position[old as usize],
+                    self.scratch.previous[old as usize],
+                )
+            });
+            let state = match old_state {
+                Some(state) if !particle.is_changed() => Some(state),
+                // An edit is gathered; an invalid edit is ignored, as without a rebuild
+                // (`gather_edit`): the particle keeps its last state.
+                _ => self
+                    .state_from_component(entity, &particle, acceleration, inputs.dt, inputs.h)
+                    .or(old_state),
             };
             let Some((x, previous)) = state else {
                 particle.bypass_change_detection().slot = NO_SLOT;
@@ -293,8 +326,14 @@ impl VerletState {
                 .push(x, previous, w, radius, entity.to_bits());
             self.solver.tethered.push(tethered);
             self.particle_entities.push(entity);
-            self.render_previous.push(particle.previous_position);
-            self.render_current.push(particle.position);
+            // (A rejected edit leaves non-finite values in the component: show the state kept.)
+            let shown = if particle.position.is_finite() && particle.previous_position.is_finite() {
+                [particle.previous_position, particle.position]
+            } else {
+                [x.as_vec3(); 2]
+            };
+            self.render_previous.push(shown[0]);
+            self.render_current.push(shown[1]);
             self.slots.insert(entity, slot);
             particle.bypass_change_detection().slot = slot;
             if pin.is_some() {
@@ -324,7 +363,9 @@ impl VerletState {
             let rest = match stick.rest_length {
                 Some(rest) if rest.is_finite() && rest >= 0.0 => rest as f64,
                 None => {
-                    stick.bypass_change_detection().rest_length = Some(distance as f32);
+                    // (Clamped: ends farther apart than f32's range would write back ∞.)
+                    stick.bypass_change_detection().rest_length =
+                        Some((distance as f32).min(f32::MAX));
                     distance
                 }
                 Some(rest) => {
@@ -334,17 +375,9 @@ impl VerletState {
                     distance
                 }
             };
-            let compliance = stick.stiffness.compliance(w);
-            let compliance = if compliance.is_finite() && compliance >= 0.0 {
-                compliance
-            } else {
-                let stiffness = stick.stiffness;
-                self.warn(entity, Problem::Compliance, || {
-                    format!(
-                        "Stick stiffness {stiffness:?} gives compliance {compliance}; using rigid"
-                    )
-                });
-                0.0
+            let stiffness = stick.stiffness;
+            let Some(compliance) = self.compliance(entity, "Stick", stiffness, w) else {
+                continue;
             };
             let tear = match stick.tear_strain {
                 None => f64::INFINITY,
@@ -377,8 +410,23 @@ impl VerletState {
                 });
                 continue;
             }
+            let p = &self.solver.particles;
+            let w = p.inverse_mass[a as usize]
+                + p.inverse_mass[b as usize]
+                + p.inverse_mass[c as usize];
+            let stiffness = angle.stiffness;
+            let Some(compliance) = self.compliance(entity, "AngleConstraint", stiffness, w) else {
+                continue;
+            };
             let axis = angle.axis.map(|k| k.as_dvec3());
-            let index = self.solver.angles.push([a, b, c], 0.0, 0.0, axis);
+            if let Some(k) = axis.filter(|k| k.try_normalize().is_none()) {
+                self.warn(entity, Problem::Angle, || {
+                    format!(
+                        "AngleConstraint axis {k} is zero or not finite; using the unsigned angle"
+                    )
+                });
+            }
+            let index = self.solver.angles.push([a, b, c], 0.0, compliance, axis);
             let current = self.solver.angles.angle(index, &self.solver.particles);
             let rest = match angle.rest_angle {
                 Some(rest) if rest.is_finite() => rest as f64,
@@ -393,17 +441,7 @@ impl VerletState {
                     current
                 }
             };
-            let p = &self.solver.particles;
-            let w = p.inverse_mass[a as usize]
-                + p.inverse_mass[b as usize]
-                + p.inverse_mass[c as usize];
-            let compliance = angle.stiffness.compliance(w);
             self.solver.angles.rest_angle[index] = rest;
-            self.solver.angles.compliance[index] = if compliance.is_finite() && compliance >= 0.0 {
-                compliance
-            } else {
-                0.0
-            };
         }
 
         self.solver.rebuild_tethers();

@@ -148,6 +148,13 @@ impl Stick {
 /// With `axis: Some(k)` the angle is signed about `k` (2D scenes: `Vec3::Z`, the default), so it
 /// cannot flip to the mirror side; with `None` it is the unsigned 3D angle.
 ///
+/// It holds only the angle: hold both arms (`a`–`b`, `b`–`c`) with sticks. The projection is
+/// linear in the angle, which is only safe while the arms keep their lengths: with free arms,
+/// with a vertex more than a few times lighter than the arm ends, or with both arm ends pinned
+/// while sticks already fix the vertex (the angle then contradicts the sticks), it can gain
+/// energy and diverge. The plugin then puts the diverging particles back (see
+/// [`VerletStats::diverged`](crate::VerletStats::diverged)).
+///
 /// ```
 /// use bevy::prelude::*;
 /// use bevy_verlet_physics::prelude::*;

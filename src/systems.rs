@@ -10,6 +10,7 @@ use crate::{
 use crate::{Stick, VerletSubsteps};
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
+use glam::DVec3;
 
 /// Timing of the step in progress.
 #[derive(Resource, Default)]
@@ -17,10 +18,21 @@ pub(crate) struct StepClock {
     started: Option<Instant>,
 }
 
-/// What changed since the last run, read from removal buffers and change filters.
+/// Components whose count is compared between runs (see `VerletState::component_counts`).
+type CountedComponents<'w, 's> = (
+    Query<'w, 's, (), With<Particle>>,
+    Query<'w, 's, (), With<Stick>>,
+    Query<'w, 's, (), With<AngleConstraint>>,
+    Query<'w, 's, (), With<Pin>>,
+    Query<'w, 's, (), With<Tethered>>,
+);
+
+/// What changed since the last run, read from removal buffers, component counts and change
+/// filters.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn detect_topology_changes(
     mut state: ResMut<VerletState>,
+    counted: CountedComponents,
     added_particles: Query<(), Added<Particle>>,
     changed_sticks: Query<(), Changed<Stick>>,
     changed_angles: Query<(), Changed<AngleConstraint>>,
@@ -38,7 +50,24 @@ pub(crate) fn detect_topology_changes(
         + removed_angles.read().count()
         + removed_pins.read().count()
         + removed_tethers.read().count();
+    // The removal buffers keep a removal for two frames only: a frame rate above the fixed rate
+    // runs frames with no fixed step, and a removal made then can be gone by the next step. A
+    // removal always changes a count unless something was added (or a stick or angle changed)
+    // at the same time, which the change filters see. `count` is O(archetypes).
+    let (particles, sticks, angles, pins, tethers) = &counted;
+    let counts = [
+        particles.count(),
+        sticks.count(),
+        angles.count(),
+        pins.count(),
+        tethers.count(),
+    ];
+    let counts_changed = counts != state.component_counts;
+    if counts_changed {
+        state.component_counts = counts;
+    }
     if removed > 0
+        || counts_changed
         || !added_particles.is_empty()
         || !changed_sticks.is_empty()
         || !changed_angles.is_empty()
@@ -49,9 +78,19 @@ pub(crate) fn detect_topology_changes(
     }
 }
 
-/// Decides whether this fixed step runs (pause and single-step).
-pub(crate) fn decide_step(mut state: ResMut<VerletState>, mut config: ResMut<VerletConfig>) {
-    state.active = if !config.paused {
+/// Decides whether this fixed step runs (pause and single-step). A step of zero length (the
+/// plugin run in a variable-rate schedule on a paused or first frame) does not run: it has no
+/// velocity to read from the components.
+pub(crate) fn decide_step(
+    mut state: ResMut<VerletState>,
+    mut config: ResMut<VerletConfig>,
+    time: Res<Time>,
+) {
+    let delta = time.delta_secs_f64();
+    let has_length = delta.is_finite() && delta > 0.0;
+    state.active = if !has_length {
+        false
+    } else if !config.paused {
         true
     } else if config.pending_steps > 0 {
         config.pending_steps -= 1;
@@ -66,17 +105,39 @@ pub(crate) fn step_is_active(state: Res<VerletState>) -> bool {
     state.active
 }
 
+/// The step's settings, with unusable values replaced: a non-finite gravity by zero, a NaN or
+/// negative damping by none (`+∞` stops every particle, which is what it means).
 fn step_config(config: &VerletConfig, gravity: &Gravity, time: &Time) -> StepConfig {
     StepConfig {
         timestep: time.delta_secs_f64(),
         substeps: config.substeps.max(1),
         iterations: config.iterations.max(1),
-        gravity: gravity.0.as_dvec3(),
-        damping: if config.damping.is_finite() {
-            config.damping.max(0.0) as f64
+        gravity: if gravity.0.is_finite() {
+            gravity.0.as_dvec3()
+        } else {
+            DVec3::ZERO
+        },
+        damping: if config.damping >= 0.0 {
+            config.damping as f64
         } else {
             0.0
         },
+    }
+}
+
+/// Warns (once) about a gravity or damping that `step_config` had to replace.
+fn warn_config(state: &mut VerletState, config: &VerletConfig, gravity: &Gravity) {
+    if !gravity.0.is_finite() {
+        let g = gravity.0;
+        state.warn(Entity::PLACEHOLDER, Problem::Gravity, || {
+            format!("Gravity {g} is not finite; using zero")
+        });
+    }
+    if config.damping.is_nan() || config.damping < 0.0 {
+        let c = config.damping;
+        state.warn(Entity::PLACEHOLDER, Problem::Damping, || {
+            format!("VerletConfig damping {c} is NaN or negative; using none")
+        });
     }
 }
 
@@ -91,11 +152,12 @@ pub(crate) fn prepare(
     mut particles: Query<(Entity, &mut Particle, Option<&Pin>, Has<Tethered>)>,
     mut sticks: Query<(Entity, &mut Stick)>,
     mut angles: Query<(Entity, &mut AngleConstraint)>,
-    pins: Query<(Entity, &Pin)>,
+    pins: Query<(Entity, &Pin, Has<Particle>)>,
     colliders: Query<(Entity, &VerletCollider, Option<&Transform>)>,
     transforms: Query<&Transform>,
 ) {
     clock.started = Some(Instant::now());
+    warn_config(&mut state, &config, &gravity);
     let step = step_config(&config, &gravity, &time);
     let (dt, h) = (step.timestep, step.substep());
     // An edited particle the solver does not know (e.g. a rejected one that was fixed) needs a
@@ -130,8 +192,14 @@ pub(crate) fn prepare(
     }
     // Pin targets move every step.
     let state = &mut *state;
-    for (entity, pin) in pins.iter() {
+    for (entity, pin, is_particle) in pins.iter() {
         let Some(slot) = state.slot(entity) else {
+            // (A particle left out for a bad position has been warned about already.)
+            if !is_particle {
+                state.warn(entity, Problem::PinWithoutParticle, || {
+                    "Pin on an entity without a Particle; ignored".to_string()
+                });
+            }
             continue;
         };
         let Some(index) = state.solver.pins.particle.iter().position(|&p| p == slot) else {
@@ -252,11 +320,31 @@ pub(crate) fn writeback(
             continue;
         }
         let slot = particle.slot as usize;
-        let position = state.solver.particles.position[slot].as_vec3();
+        // Where the particle was at the end of the last step (or an accepted edit): finite.
+        let last = state.render_current[slot];
+        let solver = &mut state.solver.particles;
+        let x = solver.position[slot];
+        let limit = DVec3::splat(f32::MAX as f64);
+        let position = if x.abs().cmple(limit).all() && solver.previous[slot].is_finite() {
+            x.as_vec3()
+        } else {
+            // NaN, infinite or beyond f32's range (which the component cannot hold): something
+            // diverged this step (a huge velocity or gravity, a constraint that cannot be met).
+            // Put the particle back where it was, at rest, so that nothing non-finite leaves
+            // the step or carries into the next one.
+            let back = last.as_dvec3();
+            solver.position[slot] = back;
+            solver.previous[slot] = back;
+            stats.diverged += 1;
+            state.warn(entity, Problem::Diverged, || {
+                format!("Particle's state became {x} (NaN, infinite or beyond f32's range); put back at its last position {last}, at rest")
+            });
+            last
+        };
         let particle = particle.bypass_change_detection();
-        particle.previous_position = particle.position;
+        particle.previous_position = last;
         particle.position = position;
-        state.render_previous[slot] = particle.previous_position;
+        state.render_previous[slot] = last;
         state.render_current[slot] = position;
     }
     stats.particles = state.solver.particles.len();

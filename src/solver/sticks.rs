@@ -11,8 +11,12 @@
 //! mass-weighted stick (full projection); with `α > 0` the stick is a spring of stiffness `1/α`
 //! whose stiffness does not change with the iteration count or the timestep. One-sided sticks
 //! (ropes that only pull, struts that only push) clamp the accumulated `λ` to one sign.
-//! Sticks whose ends are both immovable and degenerate sticks (`|x_a − x_b| ≈ 0`, no direction)
-//! are skipped rather than divided by zero.
+//! Sticks whose ends are both immovable are skipped. Coincident ends (`|x_a − x_b| ≈ 0`) have no
+//! direction: rather than divide by zero, a stick with a positive rest length pushes them apart
+//! along a fixed direction in the XY plane that depends only on the stick's index (the golden
+//! angle times the index, starting at `+X`): the solver stays deterministic, 2D scenes stay in
+//! their plane, and different sticks of a heap of coincident particles push different ways. A
+//! zero rest length with coincident ends is satisfied.
 
 use super::Particles;
 use glam::DVec3;
@@ -135,8 +139,16 @@ impl Sticks {
     }
 }
 
-/// Below this length a stick has no usable direction and is skipped for the iteration.
+/// Below this length a stick has no usable direction (its ends count as coincident).
 const MIN_LENGTH: f64 = 1e-12;
+
+/// The direction along which stick `i` pushes coincident ends apart: the golden angle
+/// (≈ 137.5°) times `i` in the XY plane (`+X` for stick 0).
+fn coincident_direction(i: usize) -> DVec3 {
+    const GOLDEN_ANGLE: f64 = 2.399_963_229_728_653;
+    let (sin, cos) = (GOLDEN_ANGLE * i as f64).sin_cos();
+    DVec3::new(cos, sin, 0.0)
+}
 
 /// Projects every stick once (one Gauss–Seidel sweep), for a substep of length `h`.
 ///
@@ -173,10 +185,12 @@ pub fn relax_sticks(particles: &mut Particles, sticks: &mut Sticks, h: f64, accu
         }
         let delta = position[a] - position[b];
         let length = delta.length();
-        if length < MIN_LENGTH {
-            continue;
+        let rest = sticks.rest_length[i];
+        let coincident = length < MIN_LENGTH;
+        if coincident && rest < MIN_LENGTH {
+            continue; // a zero-length stick with coincident ends is satisfied
         }
-        let c = length - sticks.rest_length[i];
+        let c = length - rest;
         let alpha = sticks.compliance[i] * inv_h2;
         let lambda = if accumulate { sticks.lambda[i] } else { 0.0 };
         let mut d_lambda = (-c - alpha * lambda) / (w + alpha);
@@ -189,7 +203,11 @@ pub fn relax_sticks(particles: &mut Particles, sticks: &mut Sticks, h: f64, accu
         if accumulate {
             sticks.lambda[i] = lambda + d_lambda;
         }
-        let correction: DVec3 = delta * (d_lambda / length);
+        let correction: DVec3 = if coincident {
+            coincident_direction(i) * d_lambda
+        } else {
+            delta * (d_lambda / length)
+        };
         position[a] += correction * wa;
         position[b] -= correction * wb;
     }

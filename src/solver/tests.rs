@@ -352,3 +352,44 @@ fn angle_constraint_holds_a_branch() {
         solver.particles.position[2]
     );
 }
+
+#[test]
+fn coincident_ends_are_pushed_apart_and_zero_length_sticks_are_satisfied() {
+    let mut p = Particles::default();
+    for _ in 0..4 {
+        p.push(DVec3::ONE, DVec3::ONE, 1.0, 0.0, 0);
+    }
+    let mut s = Sticks::default();
+    s.push([0, 1], 2.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    s.push([2, 3], 0.0, 0.0, StickKind::Equal, f64::INFINITY, 1);
+    relax_sticks(&mut p, &mut s, 1.0 / 512.0, false);
+    assert!(p.all_finite());
+    // Stick 0 pushes along +X, to the full rest length (rigid, equal masses: 1 each way).
+    assert_eq!(p.position[0], DVec3::new(2.0, 1.0, 1.0));
+    assert_eq!(p.position[1], DVec3::new(0.0, 1.0, 1.0));
+    // A zero-length stick between coincident particles is satisfied: nothing moves.
+    assert_eq!(p.position[2], DVec3::ONE);
+    assert_eq!(p.position[3], DVec3::ONE);
+    // A rope link (pulls only) has nothing to do when its ends coincide.
+    let mut q = Particles::default();
+    q.push(DVec3::ZERO, DVec3::ZERO, 1.0, 0.0, 0);
+    q.push(DVec3::ZERO, DVec3::ZERO, 1.0, 0.0, 1);
+    let mut rope = Sticks::default();
+    rope.push([0, 1], 1.0, 0.0, StickKind::AtMost, f64::INFINITY, 0);
+    relax_sticks(&mut q, &mut rope, 1.0 / 512.0, false);
+    assert_eq!(q.position, vec![DVec3::ZERO; 2]);
+    // Another stick index pushes along another direction, still in the XY plane.
+    let mut t = Particles::default();
+    for _ in 0..2 {
+        t.push(DVec3::ZERO, DVec3::ZERO, 1.0, 0.0, 0);
+    }
+    let mut two = Sticks::default();
+    two.push([0, 0], 1.0, 0.0, StickKind::Torn, f64::INFINITY, 0);
+    two.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 1);
+    relax_sticks(&mut t, &mut two, 1.0 / 512.0, false);
+    let d = t.position[0] - t.position[1];
+    assert!(
+        (d.length() - 1.0).abs() < 1e-12 && d.z == 0.0 && d.y.abs() > 0.1,
+        "{d}"
+    );
+}
