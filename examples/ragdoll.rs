@@ -48,7 +48,7 @@ fn spawn_on_click(
     if let Some(ray) = interaction.cursor_ray() {
         *count += 1;
         let feet = ray.origin.with_z(0.0) - Vec3::Y * scenes::RAGDOLL_HEIGHT * 0.6;
-        scenes::spawn_ragdoll(&mut commands, feet, *count % 2 == 0);
+        scenes::spawn_ragdoll(&mut commands, feet, count.is_multiple_of(2));
     }
 }
 
