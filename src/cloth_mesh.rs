@@ -5,7 +5,7 @@ use crate::Particle;
 use bevy::asset::RenderAssetUsages;
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::math::Affine3A;
-use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology};
+use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 
 /// Drives the `Mesh3d` on the same entity from a grid of particles (row-major, as
@@ -114,7 +114,13 @@ fn update_cloth_meshes(
         if mesh.count_vertices() != positions.len() {
             continue;
         }
-        mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions.clone());
+        // Overwrite the positions in place (no per-frame allocation for them).
+        match mesh.try_attribute_mut(Mesh::ATTRIBUTE_POSITION) {
+            Ok(VertexAttributeValues::Float32x3(values)) if values.len() == positions.len() => {
+                values.copy_from_slice(&positions);
+            }
+            _ => mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions.clone()),
+        }
         mesh.compute_smooth_normals();
     }
 }

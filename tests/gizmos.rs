@@ -69,3 +69,58 @@ fn gizmo_plugin_draws_one_line_per_stick_headless() {
     app.update();
     assert_eq!(line_points(&app), 0);
 }
+
+#[test]
+fn cloth_mesh_vertices_and_normals_follow_the_particles() {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        bevy::mesh::MeshPlugin,
+        bevy::gizmos::GizmoPlugin,
+        VerletPlugin::default(),
+        VerletDebugPlugin,
+    ))
+    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    app.finish();
+    app.cleanup();
+    app.update();
+    let (columns, rows) = (6, 5);
+    let cloth = common::spawn(&mut app, |c| {
+        ClothBuilder::new(Vec3::ZERO, columns, rows, 0.1)
+            .axes(Vec3::X, Vec3::Z)
+            .pin_top_corners()
+            .spawn(c)
+    });
+    let cloth_mesh = ClothMesh::new(columns, rows, cloth.particles.clone());
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(cloth_mesh.mesh());
+    app.world_mut().spawn((cloth_mesh, Mesh3d(mesh.clone())));
+    common::step(&mut app, 30);
+    let world = app.world();
+    let mesh = world.resource::<Assets<Mesh>>().get(&mesh).unwrap();
+    let positions = mesh
+        .attribute(Mesh::ATTRIBUTE_POSITION)
+        .unwrap()
+        .as_float3()
+        .unwrap();
+    let Some(bevy::mesh::VertexAttributeValues::Float32x3(normals)) =
+        mesh.attribute(Mesh::ATTRIBUTE_NORMAL)
+    else {
+        panic!("no normals");
+    };
+    let fraction = world.resource::<Time<Fixed>>().overstep_fraction();
+    for (i, &entity) in cloth.particles.iter().enumerate() {
+        let expected = world
+            .get::<Particle>(entity)
+            .unwrap()
+            .interpolated(fraction);
+        assert_eq!(Vec3::from(positions[i]), expected, "vertex {i}");
+        let n = Vec3::from(normals[i]);
+        assert!((n.length() - 1.0).abs() < 1e-4, "normal {i} = {n}");
+    }
+    // The cloth has fallen from its flat start, so the mesh is not flat any more.
+    assert!(positions.iter().any(|p| p[1] < -0.05));
+}
