@@ -45,18 +45,9 @@ fn scripted_cut(
         let mid =
             (solver.particles.position[a as usize] + solver.particles.position[b as usize]) * 0.5;
         let on_slit = (mid.x - (80.0 + 0.5 * (mid.y + 120.0))).abs() < 4.0 && mid.y < 120.0;
-        if on_slit && let Some(stick) = state.stick_entity(i) {
-            commands.entity(stick).despawn();
-            torn.write(StickTorn {
-                stick,
-                particles: [a, b].map(|p| {
-                    state
-                        .particle_entity(p as usize)
-                        .unwrap_or(Entity::PLACEHOLDER)
-                }),
-                position: mid.as_vec3(),
-                strain: 0.0,
-            });
+        if on_slit && let Some(message) = state.stick_torn(i) {
+            commands.entity(message.stick).despawn();
+            torn.write(message);
         }
     }
 }

@@ -61,20 +61,6 @@ fn scripted_drops(mut frame: Local<u32>, mut commands: Commands) {
     }
 }
 
-/// The bones drawn as sprites (the invisible posture links and joint limits are not).
-const BONES: [(usize, usize); 10] = [
-    (SHOULDER, PELVIS),
-    (SHOULDER, LEFT_ELBOW),
-    (SHOULDER, RIGHT_ELBOW),
-    (LEFT_ELBOW, LEFT_HAND),
-    (RIGHT_ELBOW, RIGHT_HAND),
-    (PELVIS, LEFT_KNEE),
-    (PELVIS, RIGHT_KNEE),
-    (LEFT_KNEE, LEFT_FOOT),
-    (RIGHT_KNEE, RIGHT_FOOT),
-    (HEAD, SHOULDER),
-];
-
 /// Gives every new ragdoll sprites that follow its sticks and a head that follows its particle.
 fn dress_ragdolls(
     ragdolls: Query<&Composite, Added<Composite>>,
@@ -89,7 +75,9 @@ fn dress_ragdolls(
         }
         let p = &doll.particles;
         let width = scenes::RAGDOLL_HEIGHT / 7.5 * 0.35;
-        for (i, &(a, b)) in BONES.iter().enumerate() {
+        // The torso (a soft link, drawn wider) and the rigid bones.
+        let torso = (SHOULDER, PELVIS);
+        for (i, &(a, b)) in std::iter::once(&torso).chain(&BONES).enumerate() {
             // A 1 × width sprite stretched along the stick (local +X is a → b).
             let shade = if i == 0 { 0.75 } else { 0.55 };
             commands.spawn((

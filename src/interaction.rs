@@ -318,30 +318,12 @@ fn cut(
         if (fa + segment * t).length_squared() > r2 {
             continue;
         }
-        let Some(stick) = state.stick_entity(i) else {
+        let Some(message) = state.stick_torn(i) else {
             continue;
         };
         already_cut.1[i] = true;
-        if let Ok(mut entity) = commands.get_entity(stick) {
-            if config.despawn_torn_sticks {
-                entity.try_despawn();
-            } else {
-                entity.try_remove::<crate::Stick>();
-            }
-            messages.write(StickTorn {
-                stick,
-                particles: [
-                    state
-                        .particle_entity(a as usize)
-                        .unwrap_or(Entity::PLACEHOLDER),
-                    state
-                        .particle_entity(b as usize)
-                        .unwrap_or(Entity::PLACEHOLDER),
-                ],
-                position: (pa + pb) * 0.5,
-                strain: solver.sticks.strain(i, &solver.particles) as f32,
-            });
-        }
+        crate::systems::remove_stick(&mut commands, message.stick, config.despawn_torn_sticks);
+        messages.write(message);
     }
 }
 

@@ -92,6 +92,21 @@ impl VerletState {
         self.stick_entities.get(index).copied()
     }
 
+    /// The [`StickTorn`](crate::StickTorn) message for solver stick `index` as it is now
+    /// (its entity, its particles, its midpoint and its strain), or `None` for an unknown index.
+    pub fn stick_torn(&self, index: usize) -> Option<crate::StickTorn> {
+        let stick = self.stick_entity(index)?;
+        let solver = &self.solver;
+        let [a, b] = solver.sticks.ends[index].map(|p| p as usize);
+        let midpoint = (solver.particles.position[a] + solver.particles.position[b]) * 0.5;
+        Some(crate::StickTorn {
+            stick,
+            particles: [a, b].map(|p| self.particle_entity(p).unwrap_or(Entity::PLACEHOLDER)),
+            position: midpoint.as_vec3(),
+            strain: solver.sticks.strain(index, &solver.particles) as f32,
+        })
+    }
+
     /// Solver slot of a particle entity (valid until the next topology change).
     pub fn slot(&self, entity: Entity) -> Option<u32> {
         self.slots.get(&entity).copied()

@@ -278,30 +278,22 @@ pub(crate) fn tear(
     }
     state.torn_pending += torn;
     stats.torn_total += torn as u64;
-    let solver = &state.solver;
-    for &index in &solver.torn {
-        let index = index as usize;
-        let [a, b] = solver.sticks.ends[index];
-        let (xa, xb) = (
-            solver.particles.position[a as usize],
-            solver.particles.position[b as usize],
-        );
-        let stick = state.stick_entities[index];
-        messages.write(StickTorn {
-            stick,
-            particles: [
-                state.particle_entities[a as usize],
-                state.particle_entities[b as usize],
-            ],
-            position: ((xa + xb) * 0.5).as_vec3(),
-            strain: solver.sticks.strain(index, &solver.particles) as f32,
-        });
-        if let Ok(mut entity) = commands.get_entity(stick) {
-            if config.despawn_torn_sticks {
-                entity.try_despawn();
-            } else {
-                entity.try_remove::<Stick>();
-            }
+    for &index in &state.solver.torn {
+        if let Some(message) = state.stick_torn(index as usize) {
+            remove_stick(&mut commands, message.stick, config.despawn_torn_sticks);
+            messages.write(message);
+        }
+    }
+}
+
+/// Takes a torn or cut stick out of the world: despawns its entity, or only removes its
+/// [`Stick`] (see [`VerletConfig::despawn_torn_sticks`]).
+pub(crate) fn remove_stick(commands: &mut Commands, stick: Entity, despawn: bool) {
+    if let Ok(mut entity) = commands.get_entity(stick) {
+        if despawn {
+            entity.try_despawn();
+        } else {
+            entity.try_remove::<Stick>();
         }
     }
 }

@@ -20,8 +20,9 @@ fn line_points(app: &App) -> usize {
         .map_or(0, |asset| asset.buffer().list_positions.len())
 }
 
-#[test]
-fn gizmo_plugin_draws_one_line_per_stick_headless() {
+/// A headless app with the debug renderer (bevy 0.19 gizmos need `AssetPlugin` and
+/// `MeshPlugin`), one fixed step per update, clock started.
+fn gizmo_app() -> App {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -35,6 +36,12 @@ fn gizmo_plugin_draws_one_line_per_stick_headless() {
     app.finish();
     app.cleanup();
     app.update();
+    app
+}
+
+#[test]
+fn gizmo_plugin_draws_one_line_per_stick_headless() {
+    let mut app = gizmo_app();
     {
         let mut store = app.world_mut().resource_mut::<GizmoConfigStore>();
         let (_, style) = store.config_mut::<VerletGizmos>();
@@ -72,19 +79,7 @@ fn gizmo_plugin_draws_one_line_per_stick_headless() {
 
 #[test]
 fn cloth_mesh_vertices_and_normals_follow_the_particles() {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        bevy::mesh::MeshPlugin,
-        bevy::gizmos::GizmoPlugin,
-        VerletPlugin::default(),
-        VerletDebugPlugin,
-    ))
-    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
-    app.finish();
-    app.cleanup();
-    app.update();
+    let mut app = gizmo_app();
     let (columns, rows) = (6, 5);
     let cloth = common::spawn(&mut app, |c| {
         ClothBuilder::new(Vec3::ZERO, columns, rows, 0.1)

@@ -113,22 +113,9 @@ fn ragdolls_fall_settle_on_the_floor_and_keep_their_limb_lengths() {
     }
 }
 
-/// Lengths of the rigid bones (head–shoulder, arms, legs).
+/// Lengths of the rigid bones.
 fn bone_lengths(p: &[Vec3]) -> Vec<f32> {
-    [
-        (HEAD, SHOULDER),
-        (SHOULDER, LEFT_ELBOW),
-        (LEFT_ELBOW, LEFT_HAND),
-        (SHOULDER, RIGHT_ELBOW),
-        (RIGHT_ELBOW, RIGHT_HAND),
-        (PELVIS, LEFT_KNEE),
-        (LEFT_KNEE, LEFT_FOOT),
-        (PELVIS, RIGHT_KNEE),
-        (RIGHT_KNEE, RIGHT_FOOT),
-    ]
-    .iter()
-    .map(|&(a, b)| p[a].distance(p[b]))
-    .collect()
+    BONES.iter().map(|&(a, b)| p[a].distance(p[b])).collect()
 }
 
 #[test]

@@ -28,6 +28,29 @@ pub struct Row {
     pub unit: Unit,
 }
 
+impl Row {
+    /// A row from the `f64` and `f32` errors as functions of the units.
+    fn new(
+        what: String,
+        substeps: u32,
+        unit: Unit,
+        f64_error: impl Fn(Units) -> f64,
+        f32_error: impl Fn(Units) -> f64,
+    ) -> Self {
+        Self {
+            what,
+            substeps,
+            errors: [
+                f64_error(Units::Metres),
+                f64_error(Units::Pixels),
+                f32_error(Units::Metres),
+                f32_error(Units::Pixels),
+            ],
+            unit,
+        }
+    }
+}
+
 /// Measures every row.
 pub fn measure() -> Vec<Row> {
     let mut rows = Vec::new();
@@ -40,17 +63,13 @@ pub fn measure() -> Vec<Row> {
             };
             let f64_error = |units| at(units).measure(&setting)[0];
             let f32_error = |units| f32_reference::pendulum(&at(units), substeps)[0];
-            rows.push(Row {
-                what: format!("pendulum {amplitude_deg}°: period error"),
+            rows.push(Row::new(
+                format!("pendulum {amplitude_deg}°: period error"),
                 substeps,
-                errors: [
-                    f64_error(Units::Metres),
-                    f64_error(Units::Pixels),
-                    f32_error(Units::Metres),
-                    f32_error(Units::Pixels),
-                ],
-                unit: Unit::Percent,
-            });
+                Unit::Percent,
+                f64_error,
+                f32_error,
+            ));
         }
     }
     for (name, velocity) in [("free fall", [0.0, 0.0]), ("projectile", LAUNCH)] {
@@ -71,17 +90,13 @@ pub fn measure() -> Vec<Row> {
                     substeps,
                 )
             };
-            rows.push(Row {
-                what: format!("{name}: position error after 1 s / distance"),
+            rows.push(Row::new(
+                format!("{name}: position error after 1 s / distance"),
                 substeps,
-                errors: [
-                    f64_error(Units::Metres),
-                    f64_error(Units::Pixels),
-                    f32_error(Units::Metres),
-                    f32_error(Units::Pixels),
-                ],
-                unit: Unit::Number,
-            });
+                Unit::Number,
+                f64_error,
+                f32_error,
+            ));
         }
     }
     rows

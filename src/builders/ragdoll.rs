@@ -43,6 +43,20 @@ pub mod part {
     pub const LEFT_FOOT: usize = 9;
     /// Right foot.
     pub const RIGHT_FOOT: usize = 10;
+
+    /// The rigid bones (the seed's stiffness-1 links), as pairs of the indices above. They are
+    /// the ragdoll's first sticks, in this order.
+    pub const BONES: [(usize, usize); 9] = [
+        (HEAD, SHOULDER),
+        (SHOULDER, LEFT_ELBOW),
+        (SHOULDER, RIGHT_ELBOW),
+        (LEFT_ELBOW, LEFT_HAND),
+        (RIGHT_ELBOW, RIGHT_HAND),
+        (PELVIS, LEFT_KNEE),
+        (PELVIS, RIGHT_KNEE),
+        (LEFT_KNEE, LEFT_FOOT),
+        (RIGHT_KNEE, RIGHT_FOOT),
+    ];
 }
 
 /// The seed's stiffness setting: 3 relaxation passes per 16 ms step.
@@ -180,25 +194,13 @@ impl RagdollBuilder {
             color: self.color,
             ..Material::default()
         };
-        // Visible rigid links (the seed's stiffness 1).
-        let bones = [
-            (HEAD, SHOULDER),
-            (SHOULDER, LEFT_ELBOW),
-            (SHOULDER, RIGHT_ELBOW),
-            (LEFT_ELBOW, LEFT_HAND),
-            (RIGHT_ELBOW, RIGHT_HAND),
-            (PELVIS, LEFT_KNEE),
-            (PELVIS, RIGHT_KNEE),
-            (LEFT_KNEE, LEFT_FOOT),
-            (RIGHT_KNEE, RIGHT_FOOT),
-        ];
         let mut composite = spawn_composite(
             commands,
             "Ragdoll",
             &material,
             &points,
             &[false; 11],
-            &bones,
+            &BONES,
         );
         let p = composite.particles.clone();
         for (i, &entity) in p.iter().enumerate() {
