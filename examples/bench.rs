@@ -135,6 +135,7 @@ fn main() {
         iterations: options.iterations,
         gravity: world.resource::<Gravity>().0.as_dvec3(),
         damping: 0.0,
+        sleep: None,
     };
     let started = Instant::now();
     for _ in 0..options.steps {

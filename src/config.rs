@@ -33,6 +33,40 @@ pub struct VerletConfig {
     pub despawn_torn_sticks: bool,
     /// Fixed steps still to run while paused.
     pub pending_steps: u32,
+    /// When resting islands stop being simulated (see [`Sleeping`]).
+    pub sleeping: Sleeping,
+    /// Spread the solve over Bevy's `ComputeTaskPool` when a scene is large enough (results are
+    /// identical either way; `false` keeps everything on the calling thread).
+    pub parallel: bool,
+}
+
+/// When an island — particles connected by sticks — falls asleep: it is then neither integrated
+/// nor solved until something touches it (a pin target moves, a particle is edited, a stick is
+/// added or torn, a collider, gravity or [`VerletConfig`] changes, or
+/// [`VerletState::wake`](crate::VerletState::wake) is called).
+///
+/// ```
+/// use bevy_verlet_physics::prelude::*;
+/// let config = VerletConfig { sleeping: Sleeping::Below { speed: 5.0, time: 1.0 }, ..default() };
+/// # use bevy::prelude::default;
+/// assert_ne!(config.sleeping, Sleeping::Never);
+/// ```
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Default, Debug, Clone)]
+pub enum Sleeping {
+    /// Islands never sleep.
+    Never,
+    /// Every movable particle below `0.001·|g|` per second (1 cm/s under
+    /// [`Gravity::METRES`], 1 px/s under [`Gravity::PIXELS`]) for 1 s.
+    #[default]
+    Auto,
+    /// Every movable particle below `speed` (units/s) for `time` seconds.
+    Below {
+        /// Speed threshold in units per second.
+        speed: f32,
+        /// Seconds below it before the island sleeps.
+        time: f32,
+    },
 }
 
 impl Default for VerletConfig {
@@ -44,6 +78,8 @@ impl Default for VerletConfig {
             paused: false,
             despawn_torn_sticks: true,
             pending_steps: 0,
+            sleeping: Sleeping::Auto,
+            parallel: true,
         }
     }
 }
@@ -128,4 +164,8 @@ pub struct VerletStats {
     /// in a step (became NaN, infinite or beyond `f32`'s range; each is also warned about
     /// once). `0` in a healthy scene.
     pub diverged: u64,
+    /// Islands (groups of connected particles) in the solver.
+    pub islands: usize,
+    /// Islands asleep after the last step (see [`Sleeping`]).
+    pub sleeping_islands: usize,
 }

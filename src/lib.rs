@@ -34,8 +34,10 @@ mod collider;
 mod config;
 #[cfg(feature = "gizmos")]
 mod debug_render;
+mod executor;
 #[cfg(feature = "gizmos")]
 pub mod interaction;
+mod island;
 mod messages;
 mod particle;
 mod pin;
@@ -53,11 +55,12 @@ pub use builders::{
 #[cfg(feature = "gizmos")]
 pub use cloth_mesh::ClothMesh;
 pub use collider::{ColliderShape, VerletCollider};
-pub use config::{Gravity, VerletConfig, VerletStats};
+pub use config::{Gravity, Sleeping, VerletConfig, VerletStats};
 #[cfg(feature = "gizmos")]
 pub use debug_render::{DebugColor, VerletDebugConfig, VerletDebugPlugin, VerletGizmos};
 #[cfg(feature = "gizmos")]
 pub use interaction::{ResetRequested, VerletInteraction, VerletInteractionPlugin};
+pub use island::IslandOverride;
 pub use messages::StickTorn;
 pub use particle::{Particle, Tethered};
 pub use pin::{Pin, PinTarget};
@@ -73,10 +76,10 @@ pub mod prelude {
         ClothBuilder, Composite, HiddenStick, RagdollBuilder, RopeBuilder, StructureBuilder,
     };
     pub use crate::{
-        AngleConstraint, ColliderShape, FollowParticle, FollowStick, Gravity, Particle, Pin,
-        PinTarget, Stick, StickKind, StickTorn, Stiffness, Tethered, VerletCollider, VerletConfig,
-        VerletPlugin, VerletState, VerletStats, VerletSubstepSystems, VerletSubsteps,
-        VerletSystems,
+        AngleConstraint, ColliderShape, FollowParticle, FollowStick, Gravity, IslandOverride,
+        Particle, Pin, PinTarget, Sleeping, Stick, StickKind, StickTorn, Stiffness, Tethered,
+        VerletCollider, VerletConfig, VerletPlugin, VerletState, VerletStats, VerletSubstepSystems,
+        VerletSubsteps, VerletSystems,
     };
     #[cfg(feature = "gizmos")]
     pub use crate::{

@@ -87,6 +87,8 @@ impl Plugin for VerletPlugin {
             .register_type::<crate::Composite>()
             .register_type::<crate::HiddenStick>()
             .register_type::<Tethered>()
+            .register_type::<crate::IslandOverride>()
+            .register_type::<crate::Sleeping>()
             .register_type::<Stick>()
             .register_type::<Stiffness>()
             .register_type::<AngleConstraint>()

@@ -8,8 +8,9 @@
 //! accuracy.
 
 use crate::particle::NO_SLOT;
-use crate::solver::{Particles, Solver, Substep, consistent_previous};
-use crate::{AngleConstraint, Particle, Pin, PinTarget, Stick};
+use crate::solver::islands::permute;
+use crate::solver::{GlobalSubstep, IslandSettings, Particles, Solver, consistent_previous};
+use crate::{AngleConstraint, IslandOverride, Particle, Pin, PinTarget, Stick};
 use bevy::ecs::entity::EntityHashMap;
 use bevy::platform::collections::HashSet;
 use bevy::prelude::*;
@@ -66,7 +67,7 @@ pub struct VerletState {
     /// Whether the current fixed step runs (not paused, or a requested single step).
     pub(crate) active: bool,
     /// The substep being run.
-    pub(crate) substep: Option<Substep>,
+    pub(crate) substep: Option<GlobalSubstep>,
     /// Particle positions at the start and end of the last fixed step, for interpolation.
     pub(crate) render_previous: Vec<Vec3>,
     pub(crate) render_current: Vec<Vec3>,
@@ -121,6 +122,46 @@ impl VerletState {
     /// Requests a topology rebuild before the next step.
     pub fn mark_dirty(&mut self) {
         self.dirty = true;
+    }
+
+    /// Wakes the island of a particle entity before the next step (see
+    /// [`Sleeping`](crate::Sleeping)). Editing a `Particle` wakes its island by itself; call
+    /// this when something the solver cannot see should disturb a resting island.
+    ///
+    /// ```
+    /// use bevy::prelude::*;
+    /// use bevy_verlet_physics::prelude::*;
+    /// fn poke(mut state: ResMut<VerletState>, hit: Query<Entity, With<Particle>>) {
+    ///     for entity in &hit {
+    ///         state.wake(entity);
+    ///     }
+    /// }
+    /// # bevy::ecs::system::assert_is_system(poke);
+    /// ```
+    pub fn wake(&mut self, entity: Entity) {
+        if let Some(slot) = self.slot(entity) {
+            self.solver.wake(slot);
+        }
+    }
+
+    /// Wakes every island before the next step.
+    pub fn wake_all(&mut self) {
+        self.solver.wake_all();
+    }
+
+    /// `true` when the island of this particle entity sleeps.
+    pub fn is_sleeping(&self, entity: Entity) -> bool {
+        let Some(slot) = self.slot(entity) else {
+            return false;
+        };
+        let list = &self.solver.islands.list;
+        let k = list.partition_point(|island| island.particles.end <= slot);
+        list.get(k).is_some_and(|island| island.asleep)
+    }
+
+    /// Index of the pin of particle `slot` (pins are kept sorted by particle).
+    pub(crate) fn pin_index(&self, slot: u32) -> Option<usize> {
+        self.solver.pins.particle.binary_search(&slot).ok()
     }
 
     /// Warns once per entity and problem.
@@ -234,10 +275,11 @@ impl VerletState {
         }
         self.solver.particles.inverse_mass[slot] = w;
         self.solver.particles.radius[slot] = radius;
+        self.solver.wake(slot as u32);
     }
 
     fn is_pinned(&self, slot: usize) -> bool {
-        self.solver.pins.particle.contains(&(slot as u32))
+        self.pin_index(slot as u32).is_some()
     }
 
     /// `true` when `particle.slot` refers to this entity's solver slot.
@@ -281,6 +323,15 @@ impl VerletState {
     }
 }
 
+/// What the rebuild reads of a particle entity.
+pub(crate) type ParticleData = (
+    Entity,
+    &'static mut Particle,
+    Option<&'static Pin>,
+    Has<crate::Tethered>,
+    Option<&'static IslandOverride>,
+);
+
 /// Inputs of a topology rebuild.
 pub(crate) struct RebuildInputs {
     pub gravity: DVec3,
@@ -294,7 +345,7 @@ impl VerletState {
     pub(crate) fn rebuild(
         &mut self,
         inputs: &RebuildInputs,
-        particles: &mut Query<(Entity, &mut Particle, Option<&Pin>, Has<crate::Tethered>)>,
+        particles: &mut Query<ParticleData>,
         sticks: &mut Query<(Entity, &mut Stick)>,
         angles: &mut Query<(Entity, &mut AngleConstraint)>,
         transforms: &Query<&Transform>,
@@ -310,7 +361,7 @@ impl VerletState {
         self.render_current.clear();
         self.torn_pending = 0;
 
-        for (entity, mut particle, pin, tethered) in particles.iter_mut() {
+        for (entity, mut particle, pin, tethered, island) in particles.iter_mut() {
             let (mut w, radius) = self.material(entity, &particle);
             let target = pin.and_then(|pin| self.pin_target(entity, pin, transforms));
             if pin.is_some() {
@@ -351,6 +402,13 @@ impl VerletState {
             self.render_current.push(shown[1]);
             self.slots.insert(entity, slot);
             particle.bypass_change_detection().slot = slot;
+            if let Some(island) = island {
+                let settings = IslandSettings {
+                    substeps: island.substeps.max(1),
+                    iterations: island.iterations.max(1),
+                };
+                self.solver.island_settings.push((slot, settings));
+            }
             if pin.is_some() {
                 let pin_index = self.solver.pins.push(slot, target.unwrap_or(x));
                 // Start from where the particle is, so a new pin drags it there smoothly.
@@ -459,8 +517,24 @@ impl VerletState {
             self.solver.angles.rest_angle[index] = rest;
         }
 
-        self.solver.rebuild_tethers();
+        self.organize(particles);
         self.generation += 1;
         self.dirty = false;
+    }
+
+    /// Lets the solver find islands and reorder its arrays, then follows the new order in the
+    /// entity tables and the `Particle::slot` fields (also rebuilds the tethers).
+    fn organize(&mut self, particles: &mut Query<ParticleData>) {
+        let reorder = self.solver.organize();
+        permute(&mut self.particle_entities, &reorder.particles);
+        permute(&mut self.render_previous, &reorder.particles);
+        permute(&mut self.render_current, &reorder.particles);
+        permute(&mut self.stick_entities, &reorder.sticks);
+        for (slot, &entity) in self.particle_entities.iter().enumerate() {
+            self.slots.insert(entity, slot as u32);
+            if let Ok((_, mut particle, ..)) = particles.get_mut(entity) {
+                particle.bypass_change_detection().slot = slot as u32;
+            }
+        }
     }
 }

@@ -1,11 +1,12 @@
 //! The plugin's systems: prepare (gather) → substeps (integrate → relax × N → constrain) →
 //! tear → writeback (scatter).
 
-use crate::solver::StepConfig;
-use crate::state::{Problem, RebuildInputs, VerletState};
+use crate::executor::with_executor;
+use crate::solver::{GlobalSubstep, Sleep, StepConfig};
+use crate::state::{ParticleData, Problem, RebuildInputs, VerletState};
 use crate::{
-    AngleConstraint, Gravity, Particle, Pin, StickTorn, Tethered, VerletCollider, VerletConfig,
-    VerletStats,
+    AngleConstraint, Gravity, Particle, Pin, Sleeping, StickTorn, Tethered, VerletCollider,
+    VerletConfig, VerletStats,
 };
 use crate::{Stick, VerletSubsteps};
 use bevy::platform::time::Instant;
@@ -108,19 +109,29 @@ pub(crate) fn step_is_active(state: Res<VerletState>) -> bool {
 /// The step's settings, with unusable values replaced: a non-finite gravity by zero, a NaN or
 /// negative damping by none (`+∞` stops every particle, which is what it means).
 fn step_config(config: &VerletConfig, gravity: &Gravity, time: &Time) -> StepConfig {
+    let gravity = if gravity.0.is_finite() {
+        gravity.0.as_dvec3()
+    } else {
+        DVec3::ZERO
+    };
     StepConfig {
         timestep: time.delta_secs_f64(),
         substeps: config.substeps.max(1),
         iterations: config.iterations.max(1),
-        gravity: if gravity.0.is_finite() {
-            gravity.0.as_dvec3()
-        } else {
-            DVec3::ZERO
-        },
+        gravity,
         damping: if config.damping >= 0.0 {
             config.damping as f64
         } else {
             0.0
+        },
+        sleep: match config.sleeping {
+            Sleeping::Never => None,
+            Sleeping::Auto => Some(Sleep::for_gravity(gravity.length())),
+            // (NaN or negative thresholds never put anything to sleep.)
+            Sleeping::Below { speed, time } => Some(Sleep {
+                speed: speed as f64,
+                time: time as f64,
+            }),
         },
     }
 }
@@ -149,7 +160,7 @@ pub(crate) fn prepare(
     config: Res<VerletConfig>,
     gravity: Res<Gravity>,
     time: Res<Time>,
-    mut particles: Query<(Entity, &mut Particle, Option<&Pin>, Has<Tethered>)>,
+    mut particles: Query<ParticleData>,
     mut sticks: Query<(Entity, &mut Stick)>,
     mut angles: Query<(Entity, &mut AngleConstraint)>,
     pins: Query<(Entity, &Pin, Has<Particle>)>,
@@ -163,7 +174,7 @@ pub(crate) fn prepare(
     // An edited particle the solver does not know (e.g. a rejected one that was fixed) needs a
     // rebuild.
     if !state.dirty {
-        for (entity, particle, _, _) in particles.iter_mut() {
+        for (entity, particle, ..) in particles.iter_mut() {
             if particle.is_changed() && !state.owns_slot(entity, &particle) {
                 state.dirty = true;
                 break;
@@ -184,7 +195,7 @@ pub(crate) fn prepare(
             &transforms,
         );
     } else {
-        for (entity, particle, _, _) in particles.iter_mut() {
+        for (entity, particle, ..) in particles.iter_mut() {
             if particle.is_changed() {
                 state.gather_edit(entity, &particle, step.gravity, dt, h);
             }
@@ -202,7 +213,7 @@ pub(crate) fn prepare(
             }
             continue;
         };
-        let Some(index) = state.solver.pins.particle.iter().position(|&p| p == slot) else {
+        let Some(index) = state.pin_index(slot) else {
             continue;
         };
         if let Some(target) = state.pin_target(entity, pin, &transforms) {
@@ -221,7 +232,8 @@ pub(crate) fn prepare(
     }
 }
 
-/// Runs the [`VerletSubsteps`] schedule once per substep.
+/// Runs the [`VerletSubsteps`] schedule once per global substep (see
+/// [`GlobalSubstep`]).
 pub(crate) fn run_substeps(world: &mut World) {
     let step = {
         let config = world.resource::<VerletConfig>();
@@ -232,34 +244,46 @@ pub(crate) fn run_substeps(world: &mut World) {
     if step.timestep <= 0.0 {
         return;
     }
-    for index in 1..=step.substeps {
-        world.resource_mut::<VerletState>().substep = Some(step.substep_context(index));
+    let count = world.resource_mut::<VerletState>().solver.begin_step(&step);
+    for index in 1..=count {
+        world.resource_mut::<VerletState>().substep = Some(GlobalSubstep {
+            config: step,
+            index,
+            count,
+            plain: false,
+        });
         world.run_schedule(VerletSubsteps);
     }
     world.resource_mut::<VerletState>().substep = None;
 }
 
 /// Substep phase 1: Verlet integration and kinematic pins.
-pub(crate) fn integrate(mut state: ResMut<VerletState>) {
+pub(crate) fn integrate(mut state: ResMut<VerletState>, config: Res<VerletConfig>) {
     let state = &mut *state;
     if let Some(substep) = state.substep {
-        state.solver.integrate_substep(&substep);
+        with_executor(config.parallel, |executor| {
+            state.solver.integrate_substep(&substep, executor)
+        });
     }
 }
 
 /// Substep phase 2: `iterations` relaxation sweeps over sticks, angles and tethers.
-pub(crate) fn relax(mut state: ResMut<VerletState>) {
+pub(crate) fn relax(mut state: ResMut<VerletState>, config: Res<VerletConfig>) {
     let state = &mut *state;
     if let Some(substep) = state.substep {
-        state.solver.relax_substep(&substep);
+        with_executor(config.parallel, |executor| {
+            state.solver.relax_substep(&substep, executor)
+        });
     }
 }
 
 /// Substep phase 3: colliders.
-pub(crate) fn constrain(mut state: ResMut<VerletState>) {
+pub(crate) fn constrain(mut state: ResMut<VerletState>, config: Res<VerletConfig>) {
     let state = &mut *state;
     if let Some(substep) = state.substep {
-        state.solver.constrain_substep(&substep);
+        with_executor(config.parallel, |executor| {
+            state.solver.constrain_substep(&substep, executor)
+        });
     }
 }
 
@@ -341,6 +365,8 @@ pub(crate) fn writeback(
     }
     stats.particles = state.solver.particles.len();
     stats.sticks = state.solver.sticks.len() - state.torn_pending;
+    stats.islands = state.solver.islands.list.len();
+    stats.sleeping_islands = state.solver.sleeping_islands();
     stats.steps += 1;
     if let Some(started) = clock.started.take() {
         stats.step_micros = started.elapsed().as_secs_f32() * 1e6;

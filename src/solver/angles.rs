@@ -19,8 +19,10 @@
 //! mass ratios with stick-held arms stayed bounded.
 
 use super::Particles;
+use super::shared::Shared;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
+use std::ops::Range;
 
 /// Struct-of-arrays storage for angle constraints.
 ///
@@ -123,24 +125,45 @@ fn wrap(angle: f64) -> f64 {
 
 /// Projects every angle constraint once (one Gauss–Seidel sweep) for a substep of length `h`.
 pub fn relax_angles(particles: &mut Particles, angles: &mut Angles, h: f64, accumulate: bool) {
-    let inv_h2 = 1.0 / (h * h);
-    for i in 0..angles.len() {
+    let mut lambda = std::mem::take(&mut angles.lambda);
+    relax_angle_range(
+        &Shared::new(&mut particles.position),
+        &particles.inverse_mass,
+        angles,
+        &Shared::new(&mut lambda),
+        0..angles.len(),
+        1.0 / (h * h),
+        accumulate,
+    );
+    angles.lambda = lambda;
+}
+
+/// [`relax_angles`] over the angle constraints in `range`.
+pub(crate) fn relax_angle_range(
+    position: &Shared<DVec3>,
+    inverse_mass: &[f64],
+    angles: &Angles,
+    lambda: &Shared<f64>,
+    range: Range<usize>,
+    inv_h2: f64,
+    accumulate: bool,
+) {
+    for i in range {
         let [a, b, c] = angles.particles[i];
         let (a, b, c) = (a as usize, b as usize, c as usize);
-        let w = [
-            particles.inverse_mass[a],
-            particles.inverse_mass[b],
-            particles.inverse_mass[c],
-        ];
-        let p = &mut particles.position;
+        if a == c {
+            continue; // both arms on one particle: its corrections cancel
+        }
+        let w = [inverse_mass[a], inverse_mass[b], inverse_mass[c]];
+        let (pa, pb, pc) = (position.get(a), position.get(b), position.get(c));
         let axis = angles.axis[i];
         // Arms projected into the plane of the signed angle.
         let flatten = |x: DVec3| match axis {
             Some(k) => x - k * x.dot(k),
             None => x,
         };
-        let u = flatten(p[a] - p[b]);
-        let v = flatten(p[c] - p[b]);
+        let u = flatten(pa - pb);
+        let v = flatten(pc - pb);
         let (lu, lv) = (u.length_squared(), v.length_squared());
         if lu < 1e-24 || lv < 1e-24 {
             continue;
@@ -160,13 +183,13 @@ pub fn relax_angles(particles: &mut Particles, angles: &mut Angles, h: f64, accu
             continue;
         }
         let constraint = wrap(theta - angles.rest_angle[i]);
-        let lambda = if accumulate { angles.lambda[i] } else { 0.0 };
-        let d_lambda = (-constraint - alpha * lambda) / (denominator + alpha);
+        let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
+        let d_lambda = (-constraint - alpha * lambda_i) / (denominator + alpha);
         if accumulate {
-            angles.lambda[i] = lambda + d_lambda;
+            lambda.set(i, lambda_i + d_lambda);
         }
-        p[a] += grad_a * (w[0] * d_lambda);
-        p[b] += grad_b * (w[1] * d_lambda);
-        p[c] += grad_c * (w[2] * d_lambda);
+        position.set(a, pa + grad_a * (w[0] * d_lambda));
+        position.set(b, pb + grad_b * (w[1] * d_lambda));
+        position.set(c, pc + grad_c * (w[2] * d_lambda));
     }
 }

@@ -10,7 +10,9 @@
 //! that exceeds it.
 
 use super::Particles;
+use super::shared::Shared;
 use glam::DVec3;
+use std::ops::Range;
 
 /// The shape of a collider.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -112,15 +114,43 @@ fn respond(velocity: DVec3, normal: DVec3, collider: &Collider, resting_speed: f
 /// assert_eq!(p.position[0].y, 0.0);
 /// ```
 pub fn constrain(particles: &mut Particles, colliders: &[Collider], gravity_step: f64) {
+    let range = 0..particles.len();
+    let Particles {
+        position,
+        previous,
+        inverse_mass,
+        radius,
+        ..
+    } = particles;
+    constrain_range(
+        &Shared::new(position),
+        &Shared::new(previous),
+        (inverse_mass, radius),
+        colliders,
+        range,
+        gravity_step,
+    );
+}
+
+/// [`constrain`] for the particles in `range` (which no other task touches), given their
+/// inverse masses and radii.
+pub(crate) fn constrain_range(
+    position: &Shared<DVec3>,
+    previous: &Shared<DVec3>,
+    (inverse_mass, radii): (&[f64], &[f64]),
+    colliders: &[Collider],
+    range: Range<usize>,
+    gravity_step: f64,
+) {
     let resting_speed = 2.0 * gravity_step;
     for collider in colliders {
-        for i in 0..particles.len() {
-            if particles.inverse_mass[i] <= 0.0 {
+        for i in range.clone() {
+            if inverse_mass[i] <= 0.0 {
                 continue;
             }
-            let radius = particles.radius[i];
-            let x = particles.position[i];
-            let velocity = x - particles.previous[i];
+            let radius = radii[i];
+            let x = position.get(i);
+            let velocity = x - previous.get(i);
             match collider.shape {
                 Shape::Inside { min, max } => {
                     let lo = min + DVec3::splat(radius);
@@ -137,16 +167,18 @@ pub fn constrain(particles: &mut Particles, colliders: &[Collider], gravity_step
                                 velocity = respond(velocity, normal, collider, resting_speed);
                             }
                         }
-                        particles.position[i] = clamped;
-                        particles.previous[i] = clamped - velocity;
+                        position.set(i, clamped);
+                        previous.set(i, clamped - velocity);
                     }
                 }
                 ref shape => {
                     if let Some((normal, depth)) = contact(shape, x, radius) {
                         let projected = x + normal * depth;
-                        particles.position[i] = projected;
-                        particles.previous[i] =
-                            projected - respond(velocity, normal, collider, resting_speed);
+                        position.set(i, projected);
+                        previous.set(
+                            i,
+                            projected - respond(velocity, normal, collider, resting_speed),
+                        );
                     }
                 }
             }

@@ -9,7 +9,9 @@
 //! pin targets by [`Pins::drive`](super::Pins::drive) right after.
 
 use super::Particles;
+use super::shared::Shared;
 use glam::DVec3;
+use std::ops::Range;
 
 /// Advances every movable particle by one substep of length `h` under `gravity`, with the
 /// per-substep velocity factor `damping_factor` (`1.0` = no damping).
@@ -23,23 +25,38 @@ use glam::DVec3;
 /// assert!((p.position[0].y + 0.1).abs() < 1e-12); // a·h² = −10 · 0.01
 /// ```
 pub fn integrate(particles: &mut Particles, gravity: DVec3, h: f64, damping_factor: f64) {
+    let range = 0..particles.len();
+    integrate_range(
+        &Shared::new(&mut particles.position),
+        &Shared::new(&mut particles.previous),
+        &particles.inverse_mass,
+        range,
+        gravity,
+        h,
+        damping_factor,
+    );
+}
+
+/// [`integrate`] over the particles in `range` (which no other task touches).
+pub(crate) fn integrate_range(
+    position: &Shared<DVec3>,
+    previous: &Shared<DVec3>,
+    inverse_mass: &[f64],
+    range: Range<usize>,
+    gravity: DVec3,
+    h: f64,
+    damping_factor: f64,
+) {
     let step = gravity * (h * h);
-    let Particles {
-        position,
-        previous,
-        inverse_mass,
-        ..
-    } = particles;
-    for ((x, x_prev), &w) in position
-        .iter_mut()
-        .zip(previous.iter_mut())
-        .zip(inverse_mass.iter())
-    {
-        let current = *x;
-        if w > 0.0 {
-            *x = current + (current - *x_prev) * damping_factor + step;
+    for i in range {
+        let current = position.get(i);
+        if inverse_mass[i] > 0.0 {
+            position.set(
+                i,
+                current + (current - previous.get(i)) * damping_factor + step,
+            );
         }
-        *x_prev = current;
+        previous.set(i, current);
     }
 }
 

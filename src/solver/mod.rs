@@ -47,18 +47,27 @@
 
 mod angles;
 mod colliders;
+pub mod colouring;
 mod integrate;
+pub mod islands;
+pub mod parallel;
 mod particles;
 mod pins;
+mod shared;
+mod step;
 mod sticks;
 mod tear;
 mod tethers;
 
 pub use angles::{Angles, relax_angles};
 pub use colliders::{Collider, Shape, constrain};
+pub use colouring::Batch;
 pub use integrate::{consistent_previous, integrate};
+pub use islands::{Island, IslandSettings, Islands, Reorder, Sleep};
+pub use parallel::{Executor, ScopedThreads, Serial};
 pub use particles::Particles;
 pub use pins::Pins;
+pub use step::GlobalSubstep;
 pub use sticks::{StickKind, Sticks, relax_sticks};
 pub use tear::tear;
 pub use tethers::{Tethers, relax_tethers};
@@ -84,6 +93,8 @@ pub struct StepConfig {
     pub gravity: DVec3,
     /// Linear damping rate `c` in 1/s: velocities decay as `exp(−c·t)`. `0` = none.
     pub damping: f64,
+    /// When islands fall asleep (`None`: never).
+    pub sleep: Option<Sleep>,
 }
 
 impl Default for StepConfig {
@@ -94,6 +105,7 @@ impl Default for StepConfig {
             iterations: 1,
             gravity: DVec3::new(0.0, -9.81, 0.0),
             damping: 0.0,
+            sleep: None,
         }
     }
 }
@@ -162,6 +174,18 @@ pub struct Solver {
     pub colliders: Vec<Collider>,
     /// Indices of the sticks torn by the last [`Solver::step`].
     pub torn: Vec<u32>,
+    /// Islands, their colour batches and sleep states (see [`Solver::organize`]).
+    pub islands: Islands,
+    /// Per-island overrides: the island containing the particle uses these settings (applied
+    /// by [`Solver::organize`]).
+    pub island_settings: Vec<(u32, IslandSettings)>,
+    /// Particles whose islands must wake before the next step (see [`Solver::wake`]).
+    pub(crate) wake_requests: Vec<u32>,
+    /// The step in progress (set by [`Solver::begin_step`]).
+    pub(crate) current: Option<StepConfig>,
+    /// The previous step's settings and colliders (a change wakes every island).
+    pub(crate) last_config: Option<StepConfig>,
+    pub(crate) last_colliders: Vec<Collider>,
 }
 
 impl Solver {
@@ -175,6 +199,10 @@ impl Solver {
         self.tethered.clear();
         self.colliders.clear();
         self.torn.clear();
+        self.island_settings.clear();
+        self.wake_requests.clear();
+        self.islands.list.clear();
+        self.islands.batches.clear();
     }
 
     /// Adds a particle at rest at `position` and returns its index. (For a particle that must
@@ -199,72 +227,11 @@ impl Solver {
         self.tethered.resize(self.particles.len(), false);
         self.tethers
             .rebuild(&self.particles, &self.sticks, &self.pins, &self.tethered);
+        self.assign_tether_ranges();
     }
 
-    /// Runs one fixed step: `S` × (integrate → relax × N → constrain), then tear. Torn stick
-    /// indices are left in [`Solver::torn`]; tethers are rebuilt if anything tore.
-    pub fn step(&mut self, config: &StepConfig) {
-        let substeps = config.substeps.max(1);
-        for index in 1..=substeps {
-            let substep = config.substep_context(index);
-            self.integrate_substep(&substep);
-            self.relax_substep(&substep);
-            self.constrain_substep(&substep);
-        }
-        self.finish_step();
-    }
-
-    /// First phase of a substep: Verlet integration, then kinematic pins placed on their
-    /// interpolated targets (and XPBD multipliers reset).
-    pub fn integrate_substep(&mut self, substep: &Substep) {
-        integrate(
-            &mut self.particles,
-            substep.gravity,
-            substep.h,
-            substep.damping_factor,
-        );
-        self.pins.drive(
-            &mut self.particles,
-            substep.index as f64 / substep.count as f64,
-        );
-        if substep.accumulate {
-            self.sticks.lambda.fill(0.0);
-            self.angles.lambda.fill(0.0);
-        }
-    }
-
-    /// Second phase of a substep: `iterations` relaxation sweeps.
-    pub fn relax_substep(&mut self, substep: &Substep) {
-        for _ in 0..substep.iterations {
-            self.relax(substep.h, substep.accumulate);
-        }
-    }
-
-    /// Third phase of a substep: colliders (skipped when there are none).
-    pub fn constrain_substep(&mut self, substep: &Substep) {
-        if !self.colliders.is_empty() {
-            let gravity_step = substep.gravity.length() * substep.h * substep.h;
-            constrain(&mut self.particles, &self.colliders, gravity_step);
-        }
-    }
-
-    /// Ends a fixed step: pins start the next step where this one left them, and overstrained
-    /// sticks tear (post-solve strain). Returns how many tore; their indices are in
-    /// [`Solver::torn`]. Tethers are rebuilt after a tear.
-    pub fn finish_step(&mut self) -> usize {
-        self.pins.from.clone_from_slice(&self.pins.to);
-        self.torn.clear();
-        if self.sticks.tearable.is_empty() {
-            return 0;
-        }
-        let torn = tear(&self.particles, &mut self.sticks, &mut self.torn);
-        if torn > 0 && !self.tethers.is_empty() {
-            self.rebuild_tethers();
-        }
-        torn
-    }
-
-    /// One relaxation sweep over every constraint: sticks, then angles, then tethers.
+    /// One relaxation sweep over every constraint, whole arrays in order, ignoring islands:
+    /// sticks, then angles, then tethers.
     pub fn relax(&mut self, h: f64, accumulate: bool) {
         relax_sticks(&mut self.particles, &mut self.sticks, h, accumulate);
         if !self.angles.is_empty() {

@@ -10,7 +10,9 @@
 //! velocity into the constraints.
 
 use super::Particles;
+use super::shared::Shared;
 use glam::DVec3;
+use std::ops::Range;
 
 /// Pinned particles and their targets for the current fixed step.
 ///
@@ -72,8 +74,23 @@ impl Pins {
     /// Places every pinned particle at its target interpolated to `fraction` (0..=1) of the fixed
     /// step. Called after integration in each substep.
     pub fn drive(&self, particles: &mut Particles, fraction: f64) {
-        for ((&p, &from), &to) in self.particle.iter().zip(&self.from).zip(&self.to) {
-            particles.position[p as usize] = from.lerp(to, fraction);
+        self.drive_range(
+            &Shared::new(&mut particles.position),
+            0..self.len(),
+            fraction,
+        );
+    }
+
+    /// [`Pins::drive`] for the pins in `range`.
+    pub(crate) fn drive_range(&self, position: &Shared<DVec3>, range: Range<usize>, fraction: f64) {
+        for i in range {
+            let target = self.from[i].lerp(self.to[i], fraction);
+            position.set(self.particle[i] as usize, target);
         }
+    }
+
+    /// `true` when a pin in `range` moves during this fixed step.
+    pub(crate) fn moving(&self, range: Range<usize>) -> bool {
+        range.into_iter().any(|i| self.from[i] != self.to[i])
     }
 }

@@ -19,7 +19,9 @@
 //! zero rest length with coincident ends is satisfied.
 
 use super::Particles;
+use super::shared::Shared;
 use glam::DVec3;
+use std::ops::Range;
 
 /// Which way a stick acts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -168,47 +170,77 @@ fn coincident_direction(i: usize) -> DVec3 {
 /// assert!((p.position[1].x - p.position[0].x - 1.0).abs() < 1e-12);
 /// ```
 pub fn relax_sticks(particles: &mut Particles, sticks: &mut Sticks, h: f64, accumulate: bool) {
-    let inv_h2 = 1.0 / (h * h);
-    let position = &mut particles.position;
-    let inverse_mass = &particles.inverse_mass;
-    for i in 0..sticks.ends.len() {
-        let kind = sticks.kind[i];
+    let mut lambda = std::mem::take(&mut sticks.lambda);
+    relax_stick_range(
+        &Shared::new(&mut particles.position),
+        &particles.inverse_mass,
+        sticks,
+        &Shared::new(&mut lambda),
+        0..sticks.len(),
+        1.0 / (h * h),
+        accumulate,
+    );
+    sticks.lambda = lambda;
+}
+
+/// [`relax_sticks`] over the sticks in `range`, with positions and multipliers that other tasks
+/// may be writing at other indices (the sticks' particles are this task's alone).
+pub(crate) fn relax_stick_range(
+    position: &Shared<DVec3>,
+    inverse_mass: &[f64],
+    sticks: &Sticks,
+    lambda: &Shared<f64>,
+    range: Range<usize>,
+    inv_h2: f64,
+    accumulate: bool,
+) {
+    let ends = &sticks.ends[range.clone()];
+    let kinds = &sticks.kind[range.clone()];
+    let rests = &sticks.rest_length[range.clone()];
+    let compliances = &sticks.compliance[range.clone()];
+    for (k, (((&[a, b], &kind), &rest), &compliance)) in ends
+        .iter()
+        .zip(kinds)
+        .zip(rests)
+        .zip(compliances)
+        .enumerate()
+    {
         if kind == StickKind::Torn {
             continue;
         }
-        let [a, b] = sticks.ends[i];
+        let i = range.start + k;
         let (a, b) = (a as usize, b as usize);
         let (wa, wb) = (inverse_mass[a], inverse_mass[b]);
         let w = wa + wb;
         if w <= 0.0 {
             continue;
         }
-        let delta = position[a] - position[b];
+        let (xa, xb) = (position.get(a), position.get(b));
+        let delta = xa - xb;
         let length = delta.length();
-        let rest = sticks.rest_length[i];
         let coincident = length < MIN_LENGTH;
         if coincident && rest < MIN_LENGTH {
             continue; // a zero-length stick with coincident ends is satisfied
         }
         let c = length - rest;
-        let alpha = sticks.compliance[i] * inv_h2;
-        let lambda = if accumulate { sticks.lambda[i] } else { 0.0 };
-        let mut d_lambda = (-c - alpha * lambda) / (w + alpha);
+        let alpha = compliance * inv_h2;
+        let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
+        let mut d_lambda = (-c - alpha * lambda_i) / (w + alpha);
         // One-sided sticks: the total multiplier may only pull (≤ 0) or only push (≥ 0).
         match kind {
-            StickKind::AtMost => d_lambda = d_lambda.min(-lambda),
-            StickKind::AtLeast => d_lambda = d_lambda.max(-lambda),
+            StickKind::AtMost => d_lambda = d_lambda.min(-lambda_i),
+            StickKind::AtLeast => d_lambda = d_lambda.max(-lambda_i),
             _ => {}
         }
         if accumulate {
-            sticks.lambda[i] = lambda + d_lambda;
+            lambda.set(i, lambda_i + d_lambda);
         }
         let correction: DVec3 = if coincident {
             coincident_direction(i) * d_lambda
         } else {
             delta * (d_lambda / length)
         };
-        position[a] += correction * wa;
-        position[b] -= correction * wb;
+        position.set(a, xa + correction * wa);
+        position.set(b, xb - correction * wb);
     }
 }

@@ -11,10 +11,12 @@
 //! Tethers are derived from the topology: they are rebuilt whenever it changes, and after a
 //! tear, so that a torn piece is not held across the tear.
 
+use super::shared::Shared;
 use super::{Particles, Pins, StickKind, Sticks};
 use glam::DVec3;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
+use std::ops::Range;
 
 /// One-sided maximum-distance constraints from particles to pinned anchors.
 ///
@@ -164,22 +166,32 @@ impl Tethers {
 /// Projects every tether once: a particle farther than its tether's length from its anchor is
 /// moved back onto the sphere around the anchor.
 pub fn relax_tethers(particles: &mut Particles, tethers: &Tethers) {
-    let position = &mut particles.position;
-    let inverse_mass = &particles.inverse_mass;
-    for ((&p, &a), &max) in tethers
-        .particle
-        .iter()
-        .zip(&tethers.anchor)
-        .zip(&tethers.max_length)
-    {
-        if inverse_mass[p as usize] <= 0.0 {
+    relax_tether_range(
+        &Shared::new(&mut particles.position),
+        &particles.inverse_mass,
+        tethers,
+        0..tethers.len(),
+    );
+}
+
+/// [`relax_tethers`] over the tethers in `range`.
+pub(crate) fn relax_tether_range(
+    position: &Shared<DVec3>,
+    inverse_mass: &[f64],
+    tethers: &Tethers,
+    range: Range<usize>,
+) {
+    for i in range {
+        let (p, a) = (tethers.particle[i] as usize, tethers.anchor[i] as usize);
+        if inverse_mass[p] <= 0.0 {
             continue; // grabbed or pinned since the tethers were built
         }
-        let anchor = position[a as usize];
-        let delta: DVec3 = position[p as usize] - anchor;
+        let max = tethers.max_length[i];
+        let anchor = position.get(a);
+        let delta: DVec3 = position.get(p) - anchor;
         let length_squared = delta.length_squared();
         if length_squared > max * max {
-            position[p as usize] = anchor + delta * (max / length_squared.sqrt());
+            position.set(p, anchor + delta * (max / length_squared.sqrt()));
         }
     }
 }

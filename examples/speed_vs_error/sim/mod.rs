@@ -19,7 +19,7 @@ pub mod reference;
 pub mod spring;
 
 use bevy_verlet_physics::Stiffness;
-use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};
+use bevy_verlet_physics::solver::{GlobalSubstep, Serial, Solver, StepConfig, StickKind};
 use glam::DVec3;
 
 /// Bevy's default fixed step (64 Hz), used by every scene.
@@ -125,6 +125,7 @@ impl Setting {
             iterations: self.iterations,
             gravity,
             damping,
+            sleep: None,
         }
     }
 }
@@ -140,15 +141,18 @@ pub fn step(
     config: &StepConfig,
     mut observe: impl FnMut(&Solver, f64),
 ) {
-    for index in 1..=config.substeps.max(1) {
-        let mut substep = config.substep_context(index);
-        if setting.law == Law::Plain {
-            substep.accumulate = false;
-        }
-        solver.integrate_substep(&substep);
-        solver.relax_substep(&substep);
-        solver.constrain_substep(&substep);
-        observe(solver, index as f64 * substep.h);
+    let count = solver.begin_step(config);
+    for index in 1..=count {
+        let substep = GlobalSubstep {
+            config: *config,
+            index,
+            count,
+            plain: setting.law == Law::Plain,
+        };
+        solver.integrate_substep(&substep, &Serial);
+        solver.relax_substep(&substep, &Serial);
+        solver.constrain_substep(&substep, &Serial);
+        observe(solver, index as f64 * config.timestep / count as f64);
     }
     solver.finish_step();
 }

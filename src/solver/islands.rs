@@ -1,0 +1,433 @@
+//! Islands: groups of particles connected by sticks or angle constraints.
+//!
+//! Islands share no particle, so they can be stepped independently: in parallel, with their own
+//! substep and iteration counts ([`IslandSettings`]), or not at all while they sleep (see
+//! [`Sleep`]). [`Solver::organize`] finds them (union–find), then *reorders* the arrays so that
+//! every island is a contiguous range of particles and of sticks, and the sticks of an island are
+//! sorted by colour (see [`colouring`](super::colouring)) and, within a colour, by particle index
+//! (so a sweep walks memory forwards). The reordering is returned as a [`Reorder`] so callers can
+//! remap their own indices; the Bevy layer does this on every topology change.
+
+use super::colouring::{Batch, MAX_COLOURS, colour_sticks};
+use super::{Solver, StickKind};
+use std::ops::Range;
+
+/// Substeps and iterations for one island, overriding the step's (e.g. a ragdoll needs fewer
+/// than a stiff cloth).
+///
+/// ```
+/// use bevy_verlet_physics::solver::IslandSettings;
+/// let light = IslandSettings { substeps: 2, iterations: 1 };
+/// assert_eq!(light.max(IslandSettings { substeps: 4, iterations: 1 }).substeps, 4);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct IslandSettings {
+    /// Substeps per fixed step (≥ 1).
+    pub substeps: u32,
+    /// Relaxation iterations per substep (≥ 1).
+    pub iterations: u32,
+}
+
+impl IslandSettings {
+    /// The larger of each count (two overrides on one island: the more accurate wins).
+    pub fn max(self, other: Self) -> Self {
+        Self {
+            substeps: self.substeps.max(other.substeps),
+            iterations: self.iterations.max(other.iterations),
+        }
+    }
+}
+
+/// When an island falls asleep: every movable particle slower than `speed` for `time` seconds.
+///
+/// ```
+/// use bevy_verlet_physics::solver::Sleep;
+/// let sleep = Sleep::for_gravity(9.81);
+/// assert!(sleep.speed > 0.0 && sleep.time > 0.0);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sleep {
+    /// Speed threshold (units per second).
+    pub speed: f64,
+    /// How long every particle must stay below it (seconds).
+    pub time: f64,
+}
+
+impl Sleep {
+    /// A threshold scaled to gravity `g` (units/s²): below `0.001·g` per second for 1 s, i.e.
+    /// 1 cm/s under 9.81 m/s² and 1 px/s under 980 px/s².
+    pub fn for_gravity(g: f64) -> Self {
+        Self {
+            speed: 0.001 * g.abs().max(1e-9),
+            time: 1.0,
+        }
+    }
+}
+
+/// One island: contiguous ranges into the solver's arrays, its settings and its sleep state.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Island {
+    /// Particle slots.
+    pub particles: Range<u32>,
+    /// Sticks (sorted by colour).
+    pub sticks: Range<u32>,
+    /// Its colour batches (indices into [`Islands::batches`]).
+    pub batches: Range<u32>,
+    /// Angle constraints.
+    pub angles: Range<u32>,
+    /// Pins.
+    pub pins: Range<u32>,
+    /// Tethers.
+    pub tethers: Range<u32>,
+    /// Overrides of the step's substeps and iterations.
+    pub settings: Option<IslandSettings>,
+    /// `true` while the island sleeps (it is neither integrated nor solved).
+    pub asleep: bool,
+    /// How long every particle has been below the sleep speed, in seconds.
+    pub calm_time: f64,
+}
+
+/// The islands of the current topology.
+#[derive(Clone, Debug, Default)]
+pub struct Islands {
+    /// Every island, in order of their first particle.
+    pub list: Vec<Island>,
+    /// Every colour batch, island after island.
+    pub batches: Vec<Batch>,
+    /// Sizes `[particles, sticks, angles, pins]` the islands were built for; on a mismatch the
+    /// solver treats everything as one island in array order.
+    pub(crate) signature: [usize; 4],
+}
+
+/// Islands with at least this many sticks are solved in colour order (and may be split across
+/// threads); smaller ones keep the order the sticks were added in. The order of a sweep matters:
+/// along a rope built from its pinned end, one in-order sweep carries the pin's correction to
+/// the free end, while the colour order (even links, then odd links) carries it one link per
+/// sweep (a 20-link rope at 8 × 1 stretched 1.6 % instead of under 1 %); on a large cloth the
+/// colour order is the stable one (see [`colouring`](super::colouring)).
+pub const COLOUR_MIN_STICKS: usize = 2048;
+
+/// How [`Solver::organize`] reordered the arrays.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Reorder {
+    /// `particles[new] = old`: the slot each particle had before.
+    pub particles: Vec<u32>,
+    /// `sticks[new] = old`: the index each stick had before.
+    pub sticks: Vec<u32>,
+}
+
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let grand = parent[parent[i as usize] as usize];
+        parent[i as usize] = grand;
+        i = grand;
+    }
+    i
+}
+
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra != rb {
+        parent[ra.max(rb) as usize] = ra.min(rb);
+    }
+}
+
+/// `values[new] = old_values[from[new]]`.
+pub(crate) fn permute<T: Clone>(values: &mut Vec<T>, from: &[u32]) {
+    let old = std::mem::take(values);
+    values.extend(from.iter().map(|&i| old[i as usize].clone()));
+}
+
+impl Solver {
+    /// Finds the islands and reorders particles and sticks for parallel, cache-friendly solving
+    /// (see the [module docs](self)). Call it after changing the topology; until then
+    /// [`Solver::step`] treats the whole solver as one island in array order. Pins, angle
+    /// constraints, tethers and island settings are remapped; the returned [`Reorder`] tells
+    /// where every particle and stick went.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Solver, StickKind};
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// for x in [0.0, 5.0, 1.0] {
+    ///     solver.add_particle(DVec3::X * x, 1.0);
+    /// }
+    /// solver.sticks.push([0, 2], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// let reorder = solver.organize();
+    /// assert_eq!(solver.islands.list.len(), 2); // {0, 2} and {1}
+    /// assert_eq!(reorder.particles, vec![0, 2, 1]); // particle 2 now sits in slot 1
+    /// assert_eq!(solver.sticks.ends[0], [0, 1]);
+    /// ```
+    pub fn organize(&mut self) -> Reorder {
+        let n = self.particles.len();
+        self.tethered.resize(n, false);
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        for (i, &[a, b]) in self.sticks.ends.iter().enumerate() {
+            if self.sticks.kind[i] != StickKind::Torn {
+                union(&mut parent, a, b);
+            }
+        }
+        for &[a, b, c] in &self.angles.particles {
+            union(&mut parent, a, b);
+            union(&mut parent, b, c);
+        }
+        // Island numbers in order of their first particle; a counting sort keeps the order of
+        // particles within an island.
+        let mut island_of_root = vec![u32::MAX; n];
+        let mut island_of = vec![0u32; n];
+        let mut count = 0u32;
+        for i in 0..n as u32 {
+            let root = find(&mut parent, i) as usize;
+            if island_of_root[root] == u32::MAX {
+                island_of_root[root] = count;
+                count += 1;
+            }
+            island_of[i as usize] = island_of_root[root];
+        }
+        let mut start = vec![0u32; count as usize + 1];
+        for &k in &island_of {
+            start[k as usize + 1] += 1;
+        }
+        for k in 0..count as usize {
+            start[k + 1] += start[k];
+        }
+        let mut fill = start.clone();
+        let mut particle_from = vec![0u32; n];
+        let mut new_of = vec![0u32; n];
+        for old in 0..n {
+            let k = island_of[old] as usize;
+            particle_from[fill[k] as usize] = old as u32;
+            new_of[old] = fill[k];
+            fill[k] += 1;
+        }
+        self.permute_particles(&particle_from, &new_of);
+        let island_of_slot = |slot: u32| island_of[particle_from[slot as usize] as usize];
+
+        // Sticks: by island (torn ones last, outside every island). Large islands are sorted by
+        // colour, then by ends; small ones keep their order (see `COLOUR_MIN_STICKS`).
+        let m = self.sticks.len();
+        let island_of_stick = |i: u32| {
+            if self.sticks.kind[i as usize] == StickKind::Torn {
+                u32::MAX
+            } else {
+                island_of_slot(self.sticks.ends[i as usize][0])
+            }
+        };
+        let mut sticks_in = vec![0usize; count as usize];
+        for i in 0..m as u32 {
+            if let Some(n) = sticks_in.get_mut(island_of_stick(i) as usize) {
+                *n += 1;
+            }
+        }
+        let coloured = |island: u32| {
+            sticks_in
+                .get(island as usize)
+                .is_some_and(|&n| n >= COLOUR_MIN_STICKS)
+        };
+        let key = |i: u32| {
+            let island = island_of_stick(i);
+            let [a, b] = self.sticks.ends[i as usize];
+            if coloured(island) {
+                (island, a.min(b), a.max(b))
+            } else {
+                (island, 0, i)
+            }
+        };
+        let mut order: Vec<u32> = (0..m as u32).collect();
+        order.sort_by_key(|&i| key(i));
+        let mut used = vec![0u64; n];
+        let mut colour = Vec::with_capacity(m);
+        colour_sticks(&self.sticks.ends, &order, &mut used, &mut colour);
+        let mut colour_of = vec![0u32; m];
+        for (&stick, &c) in order.iter().zip(&colour) {
+            if coloured(island_of_stick(stick)) {
+                colour_of[stick as usize] = c;
+            } else {
+                colour_of[stick as usize] = MAX_COLOURS; // one serial batch
+            }
+        }
+        // (Stable: within a colour the (island, ends) order stays.)
+        order.sort_by_key(|&i| (island_of_stick(i), colour_of[i as usize]));
+        self.permute_sticks(&order);
+
+        // Angle constraints by island (stable).
+        let mut angle_order: Vec<u32> = (0..self.angles.len() as u32).collect();
+        angle_order.sort_by_key(|&i| island_of_slot(self.angles.particles[i as usize][1]));
+        let angles = &mut self.angles;
+        permute(&mut angles.particles, &angle_order);
+        permute(&mut angles.rest_angle, &angle_order);
+        permute(&mut angles.compliance, &angle_order);
+        permute(&mut angles.axis, &angle_order);
+        permute(&mut angles.lambda, &angle_order);
+
+        // Pins by particle.
+        let mut pin_order: Vec<u32> = (0..self.pins.len() as u32).collect();
+        pin_order.sort_by_key(|&i| self.pins.particle[i as usize]);
+        permute(&mut self.pins.particle, &pin_order);
+        permute(&mut self.pins.from, &pin_order);
+        permute(&mut self.pins.to, &pin_order);
+
+        // The islands' ranges.
+        let signature = self.signature();
+        let islands = &mut self.islands;
+        islands.list.clear();
+        islands.batches.clear();
+        let (mut stick, mut angle, mut pin) = (0usize, 0usize, 0usize);
+        for k in 0..count as usize {
+            let particles = start[k]..start[k + 1];
+            let first_stick = stick;
+            let first_batch = islands.batches.len() as u32;
+            while stick < m && order_island(&self.sticks, stick, &island_of, &particle_from) == k {
+                let c = colour_of[order[stick] as usize];
+                let batch_start = stick;
+                while stick < m
+                    && order_island(&self.sticks, stick, &island_of, &particle_from) == k
+                    && colour_of[order[stick] as usize] == c
+                {
+                    stick += 1;
+                }
+                islands.batches.push(Batch {
+                    sticks: batch_start as u32..stick as u32,
+                    independent: c < MAX_COLOURS,
+                });
+            }
+            let first_angle = angle;
+            while angle < self.angles.len()
+                && island_of_slot(self.angles.particles[angle][1]) as usize == k
+            {
+                angle += 1;
+            }
+            let first_pin = pin;
+            while pin < self.pins.len() && self.pins.particle[pin] < particles.end {
+                pin += 1;
+            }
+            islands.list.push(Island {
+                particles,
+                sticks: first_stick as u32..stick as u32,
+                batches: first_batch..islands.batches.len() as u32,
+                angles: first_angle as u32..angle as u32,
+                pins: first_pin as u32..pin as u32,
+                ..Island::default()
+            });
+        }
+        islands.signature = signature;
+        self.rebuild_tethers();
+        self.resolve_island_settings();
+        Reorder {
+            particles: particle_from,
+            sticks: order,
+        }
+    }
+
+    /// The sizes the islands are checked against.
+    pub(crate) fn signature(&self) -> [usize; 4] {
+        [
+            self.particles.len(),
+            self.sticks.len(),
+            self.angles.len(),
+            self.pins.len(),
+        ]
+    }
+
+    /// `true` when [`Solver::islands`] describes the current arrays.
+    pub fn is_organized(&self) -> bool {
+        self.islands.signature == self.signature() && !self.islands.list.is_empty()
+    }
+
+    /// Treats everything as one island in array order (the solver was not organized since its
+    /// topology last changed). Allocates nothing once the lists have capacity.
+    pub(crate) fn use_one_island(&mut self) {
+        let signature = self.signature();
+        let islands = &mut self.islands;
+        let asleep = islands.list.first().is_some_and(|i| i.asleep) && islands.list.len() == 1;
+        let calm_time = islands.list.first().map_or(0.0, |i| i.calm_time);
+        islands.list.clear();
+        islands.batches.clear();
+        islands.batches.push(Batch {
+            sticks: 0..self.sticks.len() as u32,
+            independent: false,
+        });
+        islands.list.push(Island {
+            particles: 0..self.particles.len() as u32,
+            sticks: 0..self.sticks.len() as u32,
+            batches: 0..1,
+            angles: 0..self.angles.len() as u32,
+            pins: 0..self.pins.len() as u32,
+            tethers: 0..self.tethers.len() as u32,
+            settings: None,
+            asleep,
+            calm_time,
+        });
+        islands.signature = signature;
+        self.resolve_island_settings();
+    }
+
+    /// Gives every island the tethers of its particles (tethers are sorted by particle).
+    pub(crate) fn assign_tether_ranges(&mut self) {
+        let particle = &self.tethers.particle;
+        for island in &mut self.islands.list {
+            let start = particle.partition_point(|&p| p < island.particles.start);
+            let end = particle.partition_point(|&p| p < island.particles.end);
+            island.tethers = start as u32..end as u32;
+        }
+    }
+
+    /// Sets [`Island::settings`] from [`Solver::island_settings`] (the larger counts win).
+    fn resolve_island_settings(&mut self) {
+        for island in &mut self.islands.list {
+            island.settings = None;
+        }
+        for &(particle, settings) in &self.island_settings {
+            let list = &mut self.islands.list;
+            let k = list.partition_point(|i| i.particles.end <= particle);
+            if let Some(island) = list.get_mut(k) {
+                island.settings = Some(island.settings.map_or(settings, |s| s.max(settings)));
+            }
+        }
+    }
+
+    fn permute_particles(&mut self, from: &[u32], new_of: &[u32]) {
+        let p = &mut self.particles;
+        permute(&mut p.position, from);
+        permute(&mut p.previous, from);
+        permute(&mut p.inverse_mass, from);
+        permute(&mut p.radius, from);
+        permute(&mut p.handle, from);
+        permute(&mut self.tethered, from);
+        let remap = |i: &mut u32| *i = new_of[*i as usize];
+        self.sticks.ends.iter_mut().flatten().for_each(remap);
+        self.angles.particles.iter_mut().flatten().for_each(remap);
+        self.pins.particle.iter_mut().for_each(remap);
+        self.island_settings.iter_mut().for_each(|(i, _)| remap(i));
+    }
+
+    fn permute_sticks(&mut self, from: &[u32]) {
+        let s = &mut self.sticks;
+        permute(&mut s.ends, from);
+        permute(&mut s.rest_length, from);
+        permute(&mut s.compliance, from);
+        permute(&mut s.kind, from);
+        permute(&mut s.tear_strain, from);
+        permute(&mut s.lambda, from);
+        permute(&mut s.handle, from);
+        s.tearable.clear();
+        for i in 0..s.len() {
+            if s.tear_strain[i].is_finite() && s.kind[i] != StickKind::Torn {
+                s.tearable.push(i as u32);
+            }
+        }
+    }
+}
+
+/// Island of the stick now at index `i` (`usize::MAX` for a torn one).
+fn order_island(
+    sticks: &super::Sticks,
+    i: usize,
+    island_of: &[u32],
+    particle_from: &[u32],
+) -> usize {
+    if sticks.kind[i] == StickKind::Torn {
+        return usize::MAX;
+    }
+    island_of[particle_from[sticks.ends[i][0] as usize] as usize] as usize
+}

@@ -1,0 +1,473 @@
+//! One fixed step over islands: begin (wake, pick the substep count) → per substep integrate,
+//! relax, constrain → finish (tear, sleep).
+//!
+//! Islands advance in lockstep through `L` *global* substeps, `L` being the largest substep
+//! count of any awake island. An island with `S ≤ L` substeps takes its `j`-th substep at the
+//! first global substep `k` with `k·S/L ≥ j`, so every island takes exactly its own count, evenly
+//! spread, with its own `h = Δt/S`. Sleeping islands take none.
+//!
+//! Work is spread over an [`Executor`]: a large island's colour batches are split across
+//! threads, small islands are grouped into one job per thread, particle loops are split into
+//! ranges — each only when there is enough work for every thread (see
+//! [`parallel`](super::parallel)). Jobs never share a particle, so the result does not depend on
+//! the executor or the thread count.
+
+use super::angles::relax_angle_range;
+use super::colliders::constrain_range;
+use super::integrate::integrate_range;
+use super::parallel::{
+    Executor, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICKS_PER_JOB,
+    PARALLEL_MIN_WORK_PER_JOB, Serial, job_count, part,
+};
+use super::shared::Shared;
+use super::sticks::relax_stick_range;
+use super::tethers::relax_tether_range;
+use super::{Island, Solver, StepConfig, Substep, tear};
+use glam::DVec3;
+use std::ops::Range;
+
+/// Global substep `index` of `count` in the fixed step configured by `config` (see the
+/// [module docs](self)).
+///
+/// ```
+/// use bevy_verlet_physics::solver::{GlobalSubstep, Solver, StepConfig, Serial};
+/// let mut solver = Solver::default();
+/// let config = StepConfig::default();
+/// let count = solver.begin_step(&config);
+/// for index in 1..=count {
+///     let substep = GlobalSubstep { config, index, count, plain: false };
+///     solver.integrate_substep(&substep, &Serial);
+///     solver.relax_substep(&substep, &Serial);
+///     solver.constrain_substep(&substep, &Serial);
+/// }
+/// solver.finish_step();
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GlobalSubstep {
+    /// The step's settings (islands may override substeps and iterations).
+    pub config: StepConfig,
+    /// 1-based index.
+    pub index: u32,
+    /// Global substeps in this fixed step (from [`Solver::begin_step`]).
+    pub count: u32,
+    /// Never accumulate XPBD multipliers (plain PBD: for comparisons only).
+    pub plain: bool,
+}
+
+impl GlobalSubstep {
+    /// The substep `island` takes now, or `None` if it takes none (asleep, or not due).
+    pub fn for_island(&self, island: &Island) -> Option<Substep> {
+        if island.asleep {
+            return None;
+        }
+        let mut config = self.config;
+        if let Some(settings) = island.settings {
+            config.substeps = settings.substeps;
+            config.iterations = settings.iterations;
+        }
+        let substeps = config.substeps.max(1);
+        let count = self.count.max(substeps);
+        let j = self.index * substeps / count;
+        if j == (self.index - 1) * substeps / count {
+            return None;
+        }
+        let mut substep = config.substep_context(j);
+        if self.plain {
+            substep.accumulate = false;
+        }
+        Some(substep)
+    }
+}
+
+/// Positions, previous positions and multipliers, shareable between jobs.
+struct Views<'a> {
+    position: Shared<'a, DVec3>,
+    previous: Shared<'a, DVec3>,
+    stick_lambda: Shared<'a, f64>,
+    angle_lambda: Shared<'a, f64>,
+}
+
+/// The arrays the views borrow, moved out of the solver for a phase (no allocation).
+struct Taken {
+    position: Vec<DVec3>,
+    previous: Vec<DVec3>,
+    stick_lambda: Vec<f64>,
+    angle_lambda: Vec<f64>,
+}
+
+impl Solver {
+    /// Runs one fixed step: `S` × (integrate → relax × N → constrain), then tear. Torn stick
+    /// indices are left in [`Solver::torn`]; tethers are rebuilt if anything tore.
+    pub fn step(&mut self, config: &StepConfig) {
+        self.step_with(config, &Serial);
+    }
+
+    /// [`Solver::step`], spreading work over `executor` (same result as serial).
+    pub fn step_with(&mut self, config: &StepConfig, executor: &dyn Executor) {
+        let count = self.begin_step(config);
+        for index in 1..=count {
+            let substep = GlobalSubstep {
+                config: *config,
+                index,
+                count,
+                plain: false,
+            };
+            self.integrate_substep(&substep, executor);
+            self.relax_substep(&substep, executor);
+            self.constrain_substep(&substep, executor);
+        }
+        self.finish_step();
+    }
+
+    /// Starts a fixed step: checks the islands (one island in array order if the topology
+    /// changed since [`Solver::organize`]), wakes islands that were touched, and returns how many
+    /// global substeps the step takes (see [`GlobalSubstep`]).
+    pub fn begin_step(&mut self, config: &StepConfig) -> u32 {
+        if !self.is_organized() {
+            self.use_one_island();
+        }
+        let changed = self.last_config != Some(*config) || self.colliders != self.last_colliders;
+        if changed || config.sleep.is_none() {
+            self.wake_all();
+        }
+        self.last_config = Some(*config);
+        self.last_colliders.clone_from(&self.colliders);
+        for i in 0..self.wake_requests.len() {
+            let particle = self.wake_requests[i];
+            let list = &mut self.islands.list;
+            let k = list.partition_point(|island| island.particles.end <= particle);
+            if let Some(island) = list.get_mut(k) {
+                island.asleep = false;
+                island.calm_time = 0.0;
+            }
+        }
+        self.wake_requests.clear();
+        let pins = &self.pins;
+        let mut count = 1;
+        for island in &mut self.islands.list {
+            if island.asleep && pins.moving(range(&island.pins)) {
+                island.asleep = false;
+                island.calm_time = 0.0;
+            }
+            if !island.asleep {
+                let substeps = island.settings.map_or(config.substeps, |s| s.substeps);
+                count = count.max(substeps);
+            }
+        }
+        self.current = Some(*config);
+        count
+    }
+
+    /// Wakes the island of particle `slot` before the next step (a particle was moved, a
+    /// constraint edited; the Bevy layer calls this for every edit it gathers).
+    pub fn wake(&mut self, slot: u32) {
+        self.wake_requests.push(slot);
+    }
+
+    /// Wakes every island.
+    pub fn wake_all(&mut self) {
+        for island in &mut self.islands.list {
+            island.asleep = false;
+            island.calm_time = 0.0;
+        }
+    }
+
+    /// How many islands sleep.
+    pub fn sleeping_islands(&self) -> usize {
+        self.islands.list.iter().filter(|i| i.asleep).count()
+    }
+
+    /// First phase of a substep: Verlet integration, kinematic pins placed on their interpolated
+    /// targets, XPBD multipliers reset.
+    pub fn integrate_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
+        let (mut taken, islands) = self.take();
+        {
+            let views = views(&mut taken);
+            let particles = &self.particles;
+            let work: usize = due(&islands.list, global)
+                .map(|(i, _)| len(&i.particles))
+                .sum();
+            let jobs = job_count(executor, work, PARALLEL_MIN_PARTICLES_PER_JOB);
+            let integrate = |job: usize| {
+                for (island, substep) in due(&islands.list, global) {
+                    integrate_range(
+                        &views.position,
+                        &views.previous,
+                        &particles.inverse_mass,
+                        part(range(&island.particles), job, jobs),
+                        substep.gravity,
+                        substep.h,
+                        substep.damping_factor,
+                    );
+                }
+            };
+            if jobs > 1 {
+                executor.run(jobs, &integrate);
+            } else {
+                integrate(0);
+            }
+            for (island, substep) in due(&islands.list, global) {
+                let fraction = substep.index as f64 / substep.count as f64;
+                self.pins
+                    .drive_range(&views.position, range(&island.pins), fraction);
+                if substep.accumulate {
+                    for i in range(&island.sticks) {
+                        views.stick_lambda.set(i, 0.0);
+                    }
+                    for i in range(&island.angles) {
+                        views.angle_lambda.set(i, 0.0);
+                    }
+                }
+            }
+        }
+        self.give_back(taken, islands);
+    }
+
+    /// Second phase of a substep: `iterations` relaxation sweeps (sticks by colour, angle
+    /// constraints, tethers) per due island.
+    pub fn relax_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
+        let (mut taken, islands) = self.take();
+        {
+            let views = views(&mut taken);
+            let threads = executor.threads();
+            let big = |island: &Island| {
+                threads > 1 && len(&island.sticks) >= 2 * PARALLEL_MIN_STICKS_PER_JOB
+            };
+            // Large islands one at a time, each colour batch split across threads.
+            for (island, substep) in due(&islands.list, global).filter(|(i, _)| big(i)) {
+                self.relax_island(&views, &islands, island, &substep, Some(executor));
+            }
+            // Small islands in groups of similar work, one group per job.
+            let work = |island: &Island, substep: &Substep| {
+                len(&island.particles) + len(&island.sticks) * substep.iterations as usize
+            };
+            let small = || due(&islands.list, global).filter(|(i, _)| !big(i));
+            let total: usize = small().map(|(i, s)| work(i, &s)).sum();
+            let jobs = job_count(executor, total, PARALLEL_MIN_WORK_PER_JOB);
+            let relax_group = |job: usize| {
+                let mut done = 0;
+                for (island, substep) in small() {
+                    // An island belongs to the job its first unit of work falls in.
+                    if done * jobs / total.max(1) == job {
+                        self.relax_island(&views, &islands, island, &substep, None);
+                    }
+                    done += work(island, &substep);
+                }
+            };
+            if jobs > 1 {
+                executor.run(jobs, &relax_group);
+            } else {
+                relax_group(0);
+            }
+        }
+        self.give_back(taken, islands);
+    }
+
+    /// Third phase of a substep: colliders (skipped when there are none).
+    pub fn constrain_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
+        if self.colliders.is_empty() {
+            return;
+        }
+        let (mut taken, islands) = self.take();
+        {
+            let views = views(&mut taken);
+            let particles = &self.particles;
+            let work: usize = due(&islands.list, global)
+                .map(|(i, _)| len(&i.particles))
+                .sum();
+            let jobs = job_count(executor, work, PARALLEL_MIN_PARTICLES_PER_JOB);
+            let constrain = |job: usize| {
+                for (island, substep) in due(&islands.list, global) {
+                    let gravity_step = substep.gravity.length() * substep.h * substep.h;
+                    constrain_range(
+                        &views.position,
+                        &views.previous,
+                        (&particles.inverse_mass, &particles.radius),
+                        &self.colliders,
+                        part(range(&island.particles), job, jobs),
+                        gravity_step,
+                    );
+                }
+            };
+            if jobs > 1 {
+                executor.run(jobs, &constrain);
+            } else {
+                constrain(0);
+            }
+        }
+        self.give_back(taken, islands);
+    }
+
+    /// Ends a fixed step: pins start the next step where this one left them, overstrained sticks
+    /// tear (post-solve strain), and calm islands fall asleep. Returns how many sticks tore;
+    /// their indices are in [`Solver::torn`]. Tethers are rebuilt after a tear.
+    pub fn finish_step(&mut self) -> usize {
+        if let Some(config) = self.current.take() {
+            self.update_sleep(&config);
+        }
+        self.pins.from.clone_from_slice(&self.pins.to);
+        self.torn.clear();
+        if self.sticks.tearable.is_empty() {
+            return 0;
+        }
+        let torn = tear(&self.particles, &mut self.sticks, &mut self.torn);
+        if torn > 0 {
+            // A torn island is no longer calm.
+            for &stick in &self.torn {
+                let particle = self.sticks.ends[stick as usize][0];
+                self.wake_requests.push(particle);
+            }
+            if !self.tethers.is_empty() {
+                self.rebuild_tethers();
+            }
+        }
+        torn
+    }
+
+    /// Counts calm time and puts islands to sleep (at rest: previous = position).
+    fn update_sleep(&mut self, config: &StepConfig) {
+        let Some(sleep) = config.sleep else {
+            return;
+        };
+        let p = &mut self.particles;
+        for island in &mut self.islands.list {
+            if island.asleep {
+                continue;
+            }
+            let substeps = island
+                .settings
+                .map_or(config.substeps, |s| s.substeps)
+                .max(1);
+            let h = config.timestep / substeps as f64;
+            let limit = (sleep.speed * h).powi(2);
+            let calm = !self.pins.moving(range(&island.pins))
+                && range(&island.particles).all(|i| {
+                    p.inverse_mass[i] <= 0.0
+                        || (p.position[i] - p.previous[i]).length_squared() <= limit
+                });
+            if !calm {
+                island.calm_time = 0.0;
+                continue;
+            }
+            island.calm_time += config.timestep;
+            if island.calm_time >= sleep.time {
+                island.asleep = true;
+                for i in range(&island.particles) {
+                    p.previous[i] = p.position[i];
+                }
+            }
+        }
+    }
+
+    /// One island's relaxation: batches in order (split across threads when `executor` is
+    /// given and a batch is large and independent), then angles and tethers.
+    fn relax_island(
+        &self,
+        views: &Views,
+        islands: &super::Islands,
+        island: &Island,
+        substep: &Substep,
+        executor: Option<&dyn Executor>,
+    ) {
+        let inv_h2 = 1.0 / (substep.h * substep.h);
+        let inverse_mass = &self.particles.inverse_mass;
+        let sticks = |range: Range<usize>| {
+            relax_stick_range(
+                &views.position,
+                inverse_mass,
+                &self.sticks,
+                &views.stick_lambda,
+                range,
+                inv_h2,
+                substep.accumulate,
+            );
+        };
+        for _ in 0..substep.iterations {
+            match executor {
+                None => sticks(range(&island.sticks)),
+                Some(executor) => {
+                    for batch in &islands.batches[range(&island.batches)] {
+                        let batch_range = range(&batch.sticks);
+                        let jobs = if batch.independent {
+                            job_count(executor, batch_range.len(), PARALLEL_MIN_STICKS_PER_JOB)
+                        } else {
+                            1
+                        };
+                        if jobs > 1 {
+                            executor.run(jobs, &|job| sticks(part(batch_range.clone(), job, jobs)));
+                        } else {
+                            sticks(batch_range);
+                        }
+                    }
+                }
+            }
+            if !island.angles.is_empty() {
+                relax_angle_range(
+                    &views.position,
+                    inverse_mass,
+                    &self.angles,
+                    &views.angle_lambda,
+                    range(&island.angles),
+                    inv_h2,
+                    substep.accumulate,
+                );
+            }
+            if !island.tethers.is_empty() {
+                relax_tether_range(
+                    &views.position,
+                    inverse_mass,
+                    &self.tethers,
+                    range(&island.tethers),
+                );
+            }
+        }
+    }
+
+    /// Moves the arrays jobs write out of the solver (so the rest can be shared read-only).
+    fn take(&mut self) -> (Taken, super::Islands) {
+        (
+            Taken {
+                position: std::mem::take(&mut self.particles.position),
+                previous: std::mem::take(&mut self.particles.previous),
+                stick_lambda: std::mem::take(&mut self.sticks.lambda),
+                angle_lambda: std::mem::take(&mut self.angles.lambda),
+            },
+            std::mem::take(&mut self.islands),
+        )
+    }
+
+    fn give_back(&mut self, taken: Taken, islands: super::Islands) {
+        self.particles.position = taken.position;
+        self.particles.previous = taken.previous;
+        self.sticks.lambda = taken.stick_lambda;
+        self.angles.lambda = taken.angle_lambda;
+        self.islands = islands;
+    }
+}
+
+fn views(taken: &mut Taken) -> Views<'_> {
+    Views {
+        position: Shared::new(&mut taken.position),
+        previous: Shared::new(&mut taken.previous),
+        stick_lambda: Shared::new(&mut taken.stick_lambda),
+        angle_lambda: Shared::new(&mut taken.angle_lambda),
+    }
+}
+
+/// The islands that take a substep now, with their substep contexts.
+fn due<'a>(
+    islands: &'a [Island],
+    global: &'a GlobalSubstep,
+) -> impl Iterator<Item = (&'a Island, Substep)> + 'a {
+    islands
+        .iter()
+        .filter_map(move |island| global.for_island(island).map(|s| (island, s)))
+}
+
+fn range(r: &Range<u32>) -> Range<usize> {
+    r.start as usize..r.end as usize
+}
+
+fn len(r: &Range<u32>) -> usize {
+    (r.end - r.start) as usize
+}
