@@ -1,0 +1,98 @@
+//! Islands through the plugin: sleeping ragdolls, waking on edits, per-island settings.
+
+mod common;
+use bevy::prelude::*;
+use bevy_verlet_physics::prelude::*;
+use bevy_verlet_physics::scenes;
+use common::*;
+
+fn stats(app: &App) -> VerletStats {
+    app.world().resource::<VerletStats>().clone()
+}
+
+#[test]
+fn resting_ragdolls_fall_asleep_and_an_edit_wakes_one() {
+    let mut app = app();
+    app.insert_resource(Gravity::PIXELS);
+    let ragdolls = spawn(&mut app, |c| scenes::ragdolls(c, 6));
+    step(&mut app, 64 * 20);
+    let asleep = stats(&app);
+    assert_eq!(asleep.islands, 6);
+    assert_eq!(asleep.sleeping_islands, 6, "all six rest on the floor");
+    assert_eq!(asleep.diverged, 0);
+    // Asleep means frozen: components do not move.
+    let head = ragdolls[2].particles[0];
+    let other = ragdolls[0].particles[0];
+    let (before, other_before) = (position(&app, head), position(&app, other));
+    step(&mut app, 32);
+    assert_eq!(position(&app, head), before);
+
+    // Lifting a particle (at rest) wakes its ragdoll, and only it.
+    {
+        let mut particle = app.world_mut().get_mut::<Particle>(head).unwrap();
+        particle.position += Vec3::Y * 50.0;
+        particle.previous_position = particle.position;
+    }
+    step(&mut app, 1);
+    let state = app.world().resource::<VerletState>();
+    assert!(!state.is_sleeping(head));
+    assert!(state.is_sleeping(ragdolls[0].particles[0]));
+    assert_eq!(stats(&app).sleeping_islands, 5);
+    let lifted = position(&app, head);
+    step(&mut app, 16);
+    assert_ne!(position(&app, head), lifted, "it moves again");
+    assert_eq!(
+        position(&app, other),
+        other_before,
+        "the others stay asleep, frozen"
+    );
+}
+
+#[test]
+fn sleeping_never_keeps_everything_awake() {
+    let mut app = app();
+    app.insert_resource(Gravity::PIXELS)
+        .insert_resource(VerletConfig {
+            sleeping: Sleeping::Never,
+            ..default()
+        });
+    spawn(&mut app, |c| scenes::ragdolls(c, 3));
+    step(&mut app, 64 * 20);
+    assert_eq!(stats(&app).sleeping_islands, 0);
+}
+
+#[test]
+fn island_override_changes_only_its_island() {
+    // Two identical ropes; one carries an override of 1 substep. With 1 substep and 1
+    // iteration a 20-link rope stretches far more than at the default 8 × 1.
+    let mut app = app();
+    app.insert_resource(VerletConfig {
+        sleeping: Sleeping::Never,
+        ..default()
+    });
+    let [plain, light] = [0.0, 3.0].map(|z| {
+        spawn(&mut app, |c| {
+            RopeBuilder::new(Vec3::new(0.0, 0.0, z), Vec3::new(2.0, 0.0, z), 20)
+                .pin_start()
+                .spawn(c)
+        })
+    });
+    for &particle in &light.particles {
+        app.world_mut()
+            .entity_mut(particle)
+            .insert(IslandOverride::new(1, 1));
+    }
+    step(&mut app, 64);
+    let stretch = |rope: &Composite| {
+        let first = position(&app, rope.particles[0]);
+        let last = position(&app, rope.particles[20]);
+        (last - first).length() / 2.0 - 1.0
+    };
+    let (s_plain, s_light) = (stretch(&plain), stretch(&light));
+    assert!(s_plain < 0.01, "8 x 1 rope: {s_plain}");
+    assert!(
+        s_light > 2.0 * s_plain.max(0.001),
+        "1 x 1 rope: {s_light} vs {s_plain}"
+    );
+    assert_eq!(stats(&app).islands, 2);
+}
