@@ -4,19 +4,24 @@
 //! cargo run --release --example bench -- cloth --cols 100 --rows 100 --steps 300 --iterations 6 --substeps 1
 //! cargo run --release --example bench -- rope --links 10000 --steps 300
 //! cargo run --release --example bench -- ragdolls --count 100 --steps 300
+//! cargo run --release --example bench -- sleeping --count 100 --steps 120
 //! ```
 //!
 //! The full plugin runs under `MinimalPlugins`, one 1/64 s fixed step per update (cloth: top
 //! row pinned, spacing 0.1 m, g = 9.81 m/s², structural sticks only). It prints one line:
 //! particles, sticks, steps, µs per full step (gather + solve + scatter), µs per step of the
 //! solver core alone on the same scene (measured in the same run), and the max stretch.
-//! `--threads N` sizes Bevy's task pools; the solver itself is single-threaded today.
+//! `--threads N` runs the solver on N threads (`1`: serial; default: every core). `sleeping` lets
+//! `--count` ragdolls fall asleep, drops one more among them and compares its cost with that
+//! ragdoll dropped alone.
 
 use bevy::prelude::*;
+use bevy::tasks::ComputeTaskPool;
 use bevy::time::TimeUpdateStrategy;
+use bevy_verlet_physics::TaskPoolExecutor;
 use bevy_verlet_physics::prelude::*;
 use bevy_verlet_physics::scenes;
-use bevy_verlet_physics::solver::StepConfig;
+use bevy_verlet_physics::solver::{Executor, Serial, StepConfig};
 use std::time::Instant;
 
 /// Command-line options.
@@ -65,24 +70,18 @@ fn parse() -> Result<Options, String> {
     Ok(o)
 }
 
-fn main() {
-    let options = match parse() {
-        Ok(options) => options,
-        Err(message) => {
-            eprintln!(
-                "{message}\nusage: bench [cloth|rope|ragdolls] [--cols N --rows N | --links N | --count N] \
-                 [--steps N] [--iterations N] [--substeps N] [--threads N]"
-            );
-            std::process::exit(2);
-        }
-    };
+/// A headless app with the plugin, one fixed step per update, `threads` as asked.
+fn new_app(options: &Options) -> App {
+    let mut task_pools = TaskPoolOptions::default();
+    if let Some(threads) = options.threads.filter(|&n| n > 1) {
+        // The thread running the schedule helps the compute pool, so N threads = N − 1 workers.
+        task_pools.compute.min_threads = threads - 1;
+        task_pools.compute.max_threads = threads - 1;
+    }
     let mut app = App::new();
-    let task_pool = options
-        .threads
-        .map_or_else(TaskPoolOptions::default, TaskPoolOptions::with_num_threads);
     app.add_plugins((
         MinimalPlugins.set(TaskPoolPlugin {
-            task_pool_options: task_pool,
+            task_pool_options: task_pools,
         }),
         VerletPlugin::default(),
     ))
@@ -90,43 +89,148 @@ fn main() {
     .insert_resource(VerletConfig {
         substeps: options.substeps,
         iterations: options.iterations,
+        parallel: options.threads != Some(1),
         ..VerletConfig::default()
     });
+    app
+}
+
+/// Runs `steps` updates and returns the mean µs per update.
+fn time_steps(app: &mut App, steps: usize) -> f64 {
+    time_steps_and_plugin(app, steps).update
+}
+
+/// Mean µs per update, and of the plugin's gather, solve and scatter ([`VerletStats`]).
+struct Timing {
+    update: f64,
+    gather: f64,
+    solve: f64,
+    scatter: f64,
+}
+
+/// Runs `steps` updates and times them.
+fn time_steps_and_plugin(app: &mut App, steps: usize) -> Timing {
+    let mut sums = [0.0; 3];
+    let started = Instant::now();
+    for _ in 0..steps {
+        app.update();
+        let stats = app.world().resource::<VerletStats>();
+        let parts = [
+            stats.gather_micros,
+            stats.solve_micros,
+            stats.scatter_micros,
+        ];
+        for (sum, part) in sums.iter_mut().zip(parts) {
+            *sum += part as f64;
+        }
+    }
+    let steps = steps as f64;
+    Timing {
+        update: started.elapsed().as_secs_f64() * 1e6 / steps,
+        gather: sums[0] / steps,
+        solve: sums[1] / steps,
+        scatter: sums[2] / steps,
+    }
+}
+
+/// Spawns with commands and applies them.
+fn spawn<T>(app: &mut App, f: impl FnOnce(&mut Commands) -> T) -> T {
     let world = app.world_mut();
-    let mut commands = world.commands();
+    let out = f(&mut world.commands());
+    world.flush();
+    out
+}
+
+/// Where the moving ragdoll of the `sleeping` scene is dropped from.
+const DROP: Vec3 = Vec3::new(0.0, 200.0, 0.0);
+
+/// `count` ragdolls left to fall asleep, then one more dropped among them, against that one
+/// ragdoll dropped alone: sleeping islands should cost close to nothing.
+fn sleeping(options: &Options) {
+    let mut crowd = new_app(options);
+    crowd.insert_resource(Gravity::PIXELS);
+    spawn(&mut crowd, |c| scenes::ragdolls(c, options.count));
+    let mut settle = 0;
+    crowd.update();
+    while crowd.world().resource::<VerletStats>().sleeping_islands < options.count
+        && settle < 64 * 60
+    {
+        crowd.update();
+        settle += 1;
+    }
+    let asleep = crowd.world().resource::<VerletStats>().sleeping_islands;
+    spawn(&mut crowd, |c| scenes::spawn_ragdoll(c, DROP, false));
+    crowd.update();
+    let with_crowd = time_steps(&mut crowd, options.steps);
+
+    let mut alone = new_app(options);
+    alone.insert_resource(Gravity::PIXELS);
+    spawn(&mut alone, |c| {
+        c.spawn(scenes::window_bounds(0.0, 0.6));
+        scenes::spawn_ragdoll(c, DROP, false)
+    });
+    alone.update();
+    alone.update();
+    let single = time_steps(&mut alone, options.steps);
+    println!(
+        "{} ragdolls ({asleep} asleep after {:.1} s, 1 dropped) {with_crowd:.1} µs/step; the dropped ragdoll alone {single:.1} µs/step; ratio {:.2}×",
+        options.count + 1,
+        settle as f64 / 64.0,
+        with_crowd / single,
+    );
+}
+
+fn main() {
+    let options = match parse() {
+        Ok(options) => options,
+        Err(message) => {
+            eprintln!(
+                "{message}\nusage: bench [cloth|rope|ragdolls|sleeping] [--cols N --rows N | --links N | --count N] \
+                 [--steps N] [--iterations N] [--substeps N] [--threads N]"
+            );
+            std::process::exit(2);
+        }
+    };
+    if options.scene == "sleeping" {
+        sleeping(&options);
+        return;
+    }
+    let mut app = new_app(&options);
     match options.scene.as_str() {
         "cloth" => {
-            ClothBuilder::new(Vec3::ZERO, options.cols, options.rows, 0.1)
-                .pin_top_row(1)
-                .spawn(&mut commands);
+            spawn(&mut app, |c| {
+                ClothBuilder::new(Vec3::ZERO, options.cols, options.rows, 0.1)
+                    .pin_top_row(1)
+                    .spawn(c)
+            });
         }
         "rope" => {
             let length = options.links as f32 * 0.01;
-            RopeBuilder::new(Vec3::ZERO, Vec3::new(length, 0.0, 0.0), options.links)
-                .pin_start()
-                .spawn(&mut commands);
+            spawn(&mut app, |c| {
+                RopeBuilder::new(Vec3::ZERO, Vec3::new(length, 0.0, 0.0), options.links)
+                    .pin_start()
+                    .spawn(c)
+            });
         }
         "ragdolls" => {
             app.insert_resource(Gravity::PIXELS);
-            let mut commands = app.world_mut().commands();
-            scenes::ragdolls(&mut commands, options.count);
+            spawn(&mut app, |c| scenes::ragdolls(c, options.count));
         }
         other => {
-            eprintln!("unknown scene {other}: cloth, rope or ragdolls");
+            eprintln!("unknown scene {other}: cloth, rope, ragdolls or sleeping");
             std::process::exit(2);
         }
     }
-    app.world_mut().flush();
     // The first update starts the clock; the second gathers the scene (topology build).
     app.update();
     app.update();
-    let started = Instant::now();
-    for _ in 0..options.steps {
-        app.update();
-    }
-    let full = started.elapsed().as_secs_f64() * 1e6 / options.steps as f64;
+    let t = time_steps_and_plugin(&mut app, options.steps);
+    // Bevy's own cost of an update (schedules, executors, time) with nothing to simulate.
+    let mut empty = new_app(&options);
+    empty.update();
+    let bevy = time_steps(&mut empty, options.steps);
 
-    // The solver core alone on the same scene, in the same run.
+    // The solver core alone on the same scene, in the same run, on the same threads.
     let world = app.world();
     let mut solver = world.resource::<VerletState>().solver.clone();
     let config = StepConfig {
@@ -137,9 +241,15 @@ fn main() {
         damping: 0.0,
         sleep: None,
     };
+    let pool = ComputeTaskPool::get();
+    let executor: &dyn Executor = if options.threads == Some(1) {
+        &Serial
+    } else {
+        &TaskPoolExecutor(pool)
+    };
     let started = Instant::now();
     for _ in 0..options.steps {
-        solver.step(&config);
+        solver.step_with(&config, executor);
     }
     let core = started.elapsed().as_secs_f64() * 1e6 / options.steps as f64;
 
@@ -148,14 +258,20 @@ fn main() {
     let max_stretch = (0..sticks.len())
         .map(|i| sticks.strain(i, &state.solver.particles))
         .fold(0.0, f64::max);
+    let plugin = t.gather + t.solve + t.scatter;
     println!(
-        "{} particles {} sticks {} steps {:.1} µs/step (core {:.1} µs/step, ECS overhead {:.2}×) max stretch {:.3} %",
+        "{} particles {} sticks {} steps {:.1} µs/step: gather {:.1} + solve {:.1} + scatter {:.1} µs (ECS overhead {:.2}×; core alone {:.1} µs/step; an empty app's update {:.1} µs) max stretch {:.3} % threads {}",
         state.solver.particles.len(),
         sticks.len(),
         options.steps,
-        full,
+        t.update,
+        t.gather,
+        t.solve,
+        t.scatter,
+        plugin / t.solve,
         core,
-        full / core,
+        bevy,
         max_stretch * 100.0,
+        executor.threads(),
     );
 }

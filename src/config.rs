@@ -158,8 +158,15 @@ pub struct VerletStats {
     pub steps: u64,
     /// Topology rebuilds since startup.
     pub rebuilds: u64,
-    /// Wall time of the last fixed step's solve (gather, substeps, tear, scatter), in µs.
+    /// Wall time of the last fixed step's solve (gather, substeps, tear, scatter, and Bevy's
+    /// scheduling between those systems), in µs.
     pub step_micros: f32,
+    /// Of which: gathering components into the solver (topology rebuild included), in µs.
+    pub gather_micros: f32,
+    /// Of which: the solver's substeps, in µs.
+    pub solve_micros: f32,
+    /// Of which: scattering positions back into the components, in µs.
+    pub scatter_micros: f32,
     /// Particles put back at their last position since startup because their state diverged
     /// in a step (became NaN, infinite or beyond `f32`'s range; each is also warned about
     /// once). `0` in a healthy scene.

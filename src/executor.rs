@@ -3,11 +3,22 @@
 use crate::solver::{Executor, Serial};
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 
-/// Runs the core's jobs on a Bevy task pool: job 0 on the calling thread (which also helps with
-/// the others while it waits), the rest as tasks.
-pub(crate) struct PoolExecutor(&'static TaskPool);
+/// Runs the solver core's jobs on a Bevy task pool: job 0 on the calling thread (which also
+/// helps with the others while it waits), the rest as tasks. The plugin uses it with
+/// `ComputeTaskPool`; use it to step a [`Solver`](crate::solver::Solver) of your own in
+/// parallel.
+///
+/// ```
+/// use bevy::tasks::{ComputeTaskPool, TaskPool};
+/// use bevy_verlet_physics::TaskPoolExecutor;
+/// use bevy_verlet_physics::solver::{Solver, StepConfig};
+/// let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+/// let mut solver = Solver::default();
+/// solver.step_with(&StepConfig::default(), &TaskPoolExecutor(pool));
+/// ```
+pub struct TaskPoolExecutor(pub &'static TaskPool);
 
-impl Executor for PoolExecutor {
+impl Executor for TaskPoolExecutor {
     fn threads(&self) -> usize {
         // The scope's caller runs jobs too.
         self.0.thread_num() + 1
@@ -28,7 +39,7 @@ impl Executor for PoolExecutor {
 /// Calls `f` with the compute pool's executor if `parallel` and the pool exists, else serial.
 pub(crate) fn with_executor<R>(parallel: bool, f: impl FnOnce(&dyn Executor) -> R) -> R {
     match ComputeTaskPool::try_get() {
-        Some(pool) if parallel => f(&PoolExecutor(pool)),
+        Some(pool) if parallel => f(&TaskPoolExecutor(pool)),
         _ => f(&Serial),
     }
 }

@@ -58,6 +58,7 @@ pub use collider::{ColliderShape, VerletCollider};
 pub use config::{Gravity, Sleeping, VerletConfig, VerletStats};
 #[cfg(feature = "gizmos")]
 pub use debug_render::{DebugColor, VerletDebugConfig, VerletDebugPlugin, VerletGizmos};
+pub use executor::TaskPoolExecutor;
 #[cfg(feature = "gizmos")]
 pub use interaction::{ResetRequested, VerletInteraction, VerletInteractionPlugin};
 pub use island::IslandOverride;

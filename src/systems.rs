@@ -17,6 +17,9 @@ use glam::DVec3;
 #[derive(Resource, Default)]
 pub(crate) struct StepClock {
     started: Option<Instant>,
+    /// Time spent gathering (prepare) and solving (substeps and tear) in this step, in µs.
+    gather: f32,
+    solve: f32,
 }
 
 /// Components whose count is compared between runs (see `VerletState::component_counts`).
@@ -230,6 +233,12 @@ pub(crate) fn prepare(
             }),
         }
     }
+    clock.gather = micros_since(clock.started);
+}
+
+/// Microseconds since `start` (0 without one).
+fn micros_since(start: Option<Instant>) -> f32 {
+    start.map_or(0.0, |start| start.elapsed().as_secs_f32() * 1e6)
 }
 
 /// Runs the [`VerletSubsteps`] schedule once per global substep (see
@@ -244,6 +253,7 @@ pub(crate) fn run_substeps(world: &mut World) {
     if step.timestep <= 0.0 {
         return;
     }
+    let started = Instant::now();
     let count = world.resource_mut::<VerletState>().solver.begin_step(&step);
     for index in 1..=count {
         world.resource_mut::<VerletState>().substep = Some(GlobalSubstep {
@@ -255,6 +265,7 @@ pub(crate) fn run_substeps(world: &mut World) {
         world.run_schedule(VerletSubsteps);
     }
     world.resource_mut::<VerletState>().substep = None;
+    world.resource_mut::<StepClock>().solve = micros_since(Some(started));
 }
 
 /// Substep phase 1: Verlet integration and kinematic pins.
@@ -330,6 +341,7 @@ pub(crate) fn writeback(
     mut stats: ResMut<VerletStats>,
     mut particles: Query<(Entity, &mut Particle)>,
 ) {
+    let scatter_started = Instant::now();
     let state = &mut *state;
     for (entity, mut particle) in particles.iter_mut() {
         if !state.owns_slot(entity, &particle) {
@@ -368,6 +380,9 @@ pub(crate) fn writeback(
     stats.islands = state.solver.islands.list.len();
     stats.sleeping_islands = state.solver.sleeping_islands();
     stats.steps += 1;
+    stats.gather_micros = clock.gather;
+    stats.solve_micros = clock.solve;
+    stats.scatter_micros = micros_since(Some(scatter_started));
     if let Some(started) = clock.started.take() {
         stats.step_micros = started.elapsed().as_secs_f32() * 1e6;
     }

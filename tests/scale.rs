@@ -176,11 +176,13 @@ fn colour_batches_share_no_particle_and_cover_every_stick_once() {
     hub_cloth.organize();
     let (batches, any_serial) = check_batches(&hub_cloth);
     assert!(any_serial && batches > 64, "{batches} batches");
-    // Small islands keep their order in one serial batch.
+    // Small islands, and chains of any length, keep their order in one serial batch.
     let mut ropes = Solver::default();
     interleaved_ropes(&mut ropes, 3, 10);
+    interleaved_ropes(&mut ropes, 1, 5000);
     ropes.organize();
     assert_eq!(check_batches(&ropes), (1, true));
+    assert!(ropes.islands.batches.iter().all(|b| !b.independent));
 }
 
 #[test]

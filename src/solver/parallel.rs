@@ -63,14 +63,14 @@ impl Executor for ScopedThreads {
 }
 
 /// A colour batch is split across threads only if each thread gets at least this many sticks.
-pub const PARALLEL_MIN_STICKS_PER_JOB: usize = 1024;
+pub const PARALLEL_MIN_STICKS_PER_JOB: usize = 16_384;
 
 /// Islands are spread across threads only if each thread gets at least this much work
 /// (particles + sticks × iterations).
-pub const PARALLEL_MIN_WORK_PER_JOB: usize = 2048;
+pub const PARALLEL_MIN_WORK_PER_JOB: usize = 32_768;
 
 /// Particle loops (integration, colliders) are split only if each thread gets this many.
-pub const PARALLEL_MIN_PARTICLES_PER_JOB: usize = 8192;
+pub const PARALLEL_MIN_PARTICLES_PER_JOB: usize = 65_536;
 
 /// How many jobs to split `work` units into, given at least `min_per_job` per job.
 pub(crate) fn job_count(executor: &dyn Executor, work: usize, min_per_job: usize) -> usize {
