@@ -1,16 +1,21 @@
-//! Criterion benchmarks: the solver core against a bare reference loop (the same math on plain
-//! arrays, nothing else) and the full ECS fixed step against the core alone, on cloth grids of
-//! 32², 128² and 512² particles and a 10 000-link rope.
+//! Criterion benchmarks, `cargo bench --bench solver`; compare lines within one group (their
+//! ratio is measured in the same run):
 //!
-//! `cargo bench --bench solver` — compare the `core` and `bare` lines of one group: their ratio
-//! is the core's overhead, measured in the same run.
+//! * `relax_sweep`: one sweep of the solver core against a bare reference loop (the same math on
+//!   plain arrays, nothing else), on cloth grids of 32², 128², 512² particles and a 10 000-link
+//!   rope; plus two variants of the bare loop: `bare_lanes` (four independent sticks at a time,
+//!   lane arrays that LLVM vectorises) and `bare_2d` (2D positions).
+//! * `parallel_step_10_iterations`: a full core step on one thread and on Bevy's compute pool.
+//! * `fixed_step_10_iterations`: a whole `app.update()` with the plugin against the core alone.
 
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_verlet_physics::prelude::*;
-use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind, relax_sticks};
+use bevy::tasks::ComputeTaskPool;
+use bevy_verlet_physics::TaskPoolExecutor;
+use bevy_verlet_physics::solver::{Serial, Solver, StepConfig, StickKind, relax_sticks};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -65,14 +70,18 @@ fn rope(links: usize) -> Solver {
 /// The bare reference: rigid PBD stick projection on plain arrays.
 struct Bare {
     position: Vec<DVec3>,
+    position_2d: Vec<DVec2>,
     inverse_mass: Vec<f64>,
     sticks: Vec<(u32, u32, f64)>,
+    /// Stick ranges whose sticks share no particle (the solver's colour batches).
+    independent: Vec<std::ops::Range<usize>>,
 }
 
 impl Bare {
     fn from(solver: &Solver) -> Self {
         Self {
             position: solver.particles.position.clone(),
+            position_2d: solver.particles.position.iter().map(|p| p.truncate()).collect(),
             inverse_mass: solver.particles.inverse_mass.clone(),
             sticks: (0..solver.sticks.len())
                 .map(|i| {
@@ -80,6 +89,89 @@ impl Bare {
                     (a, b, solver.sticks.rest_length[i])
                 })
                 .collect(),
+            independent: solver
+                .islands
+                .batches
+                .iter()
+                .filter(|b| b.independent)
+                .map(|b| b.sticks.start as usize..b.sticks.end as usize)
+                .collect(),
+        }
+    }
+
+    /// The same sweep with 2D positions (16 bytes instead of 24).
+    fn relax_2d(&mut self) {
+        let p = &mut self.position_2d;
+        for &(a, b, rest) in &self.sticks {
+            let (a, b) = (a as usize, b as usize);
+            let (wa, wb) = (self.inverse_mass[a], self.inverse_mass[b]);
+            let w = wa + wb;
+            let delta = p[a] - p[b];
+            let length = delta.length();
+            if w <= 0.0 || length < 1e-12 {
+                continue;
+            }
+            let correction = delta * ((rest - length) / (w * length));
+            p[a] += correction * wa;
+            p[b] -= correction * wb;
+        }
+    }
+
+    /// The same sweep over the colour batches, four independent sticks at a time: gather into
+    /// lane arrays, compute lane-wise (LLVM vectorises it with the target's SIMD), scatter.
+    fn relax_lanes(&mut self) {
+        const L: usize = 4;
+        let p = &mut self.position;
+        let w = &self.inverse_mass;
+        for batch in &self.independent {
+            let mut i = batch.start;
+            while i + L <= batch.end {
+                let mut lanes = [[0.0f64; L]; 9]; // dx dy dz wa wb rest ...
+                for k in 0..L {
+                    let (a, b, rest) = self.sticks[i + k];
+                    let (a, b) = (a as usize, b as usize);
+                    let d = p[a] - p[b];
+                    lanes[0][k] = d.x;
+                    lanes[1][k] = d.y;
+                    lanes[2][k] = d.z;
+                    lanes[3][k] = w[a];
+                    lanes[4][k] = w[b];
+                    lanes[5][k] = rest;
+                }
+                let mut scale = [0.0f64; L];
+                for k in 0..L {
+                    let length = (lanes[0][k] * lanes[0][k]
+                        + lanes[1][k] * lanes[1][k]
+                        + lanes[2][k] * lanes[2][k])
+                        .sqrt();
+                    let ws = lanes[3][k] + lanes[4][k];
+                    let ok = ws > 0.0 && length >= 1e-12;
+                    scale[k] = if ok {
+                        (lanes[5][k] - length) / (ws * length)
+                    } else {
+                        0.0
+                    };
+                }
+                for k in 0..L {
+                    let (a, b, _) = self.sticks[i + k];
+                    let c = DVec3::new(lanes[0][k], lanes[1][k], lanes[2][k]) * scale[k];
+                    p[a as usize] += c * lanes[3][k];
+                    p[b as usize] -= c * lanes[4][k];
+                }
+                i += L;
+            }
+            for &(a, b, rest) in &self.sticks[i..batch.end] {
+                let (a, b) = (a as usize, b as usize);
+                let (wa, wb) = (w[a], w[b]);
+                let delta = p[a] - p[b];
+                let length = delta.length();
+                if wa + wb <= 0.0 || length < 1e-12 {
+                    continue;
+                }
+                let correction = delta * ((rest - length) / ((wa + wb) * length));
+                p[a] += correction * wa;
+                p[b] -= correction * wb;
+            }
         }
     }
 
@@ -115,7 +207,9 @@ fn relax(c: &mut Criterion) {
         ("rope_10k", rope(10_000)),
     ];
     for (name, mut solver) in scenes {
-        // Sag a little first so the sticks have work to do.
+        // Organized as the plugin does (colour batches for the cloths), then sagged a little so
+        // the sticks have work to do.
+        solver.organize();
         let config = StepConfig::default();
         for _ in 0..4 {
             solver.step(&config);
@@ -126,19 +220,28 @@ fn relax(c: &mut Criterion) {
             b.iter(|| relax_sticks(&mut solver.particles, &mut solver.sticks, 1.0 / 64.0, false))
         });
         group.bench_function(BenchmarkId::new("bare", name), |b| b.iter(|| bare.relax()));
-        black_box(&bare.position);
+        if !bare.independent.is_empty() {
+            group.bench_function(BenchmarkId::new("bare_lanes", name), |b| {
+                b.iter(|| bare.relax_lanes())
+            });
+            group.bench_function(BenchmarkId::new("bare_2d", name), |b| {
+                b.iter(|| bare.relax_2d())
+            });
+        }
+        black_box((&bare.position, &bare.position_2d));
     }
     group.finish();
 }
 
-/// A full fixed step with 10 iterations: the ECS plugin (gather, solve, scatter) vs the core.
+/// A full fixed step with 10 iterations: the ECS plugin (a whole `app.update()`: Bevy's
+/// scheduling, gather, solve, scatter) vs the core, both on Bevy's compute pool.
 fn ecs_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("fixed_step_10_iterations");
     group
         .sample_size(10)
         .measurement_time(Duration::from_secs(4))
         .warm_up_time(Duration::from_millis(500));
-    for n in [32, 128] {
+    for n in [32, 128, 512] {
         let mut app = App::new();
         app.add_plugins((MinimalPlugins, VerletPlugin::default()))
             .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
@@ -165,18 +268,62 @@ fn ecs_step(c: &mut Criterion) {
             timestep: 1.0 / 64.0,
             ..StepConfig::default()
         };
+        let pool = TaskPoolExecutor(ComputeTaskPool::get());
         group.bench_function(BenchmarkId::new("core", format!("cloth_{n}")), |b| {
-            b.iter(|| solver.step(&config))
-        });
-        // The same cloth built directly in the core (row-major particles and sticks): shows
-        // what the ECS's slot and stick order costs.
-        let mut direct = cloth(n);
-        group.bench_function(BenchmarkId::new("core_direct", format!("cloth_{n}")), |b| {
-            b.iter(|| direct.step(&config))
+            b.iter(|| solver.step_with(&config, &pool))
         });
     }
     group.finish();
 }
 
-criterion_group!(benches, relax, ecs_step);
+/// A full core step (1 × 10) on one thread and on Bevy's compute pool (all cores): one large
+/// cloth (colour batches split across threads) and many small islands (islands spread).
+fn parallel(c: &mut Criterion) {
+    let mut group = c.benchmark_group("parallel_step_10_iterations");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(4))
+        .warm_up_time(Duration::from_millis(500));
+    // Bevy's default pools (on 2 cores: one compute worker, plus the calling thread).
+    TaskPoolOptions::default().create_default_pools();
+    let pool = TaskPoolExecutor(ComputeTaskPool::get());
+    let mut ropes = Solver::default();
+    for r in 0..400 {
+        let start = ropes.particles.len() as u32;
+        for i in 0..=100 {
+            ropes.add_particle(DVec3::new(i as f64 * 0.01, 0.0, r as f64), 1.0);
+        }
+        for i in 0..100 {
+            ropes
+                .sticks
+                .push([start + i, start + i + 1], 0.01, 0.0, StickKind::Equal, f64::INFINITY, 0);
+        }
+        ropes.pin(start, ropes.particles.position[start as usize]);
+    }
+    let scenes = [
+        ("cloth_128", cloth(128)),
+        ("cloth_256", cloth(256)),
+        ("cloth_512", cloth(512)),
+        ("ropes_400x100", ropes),
+    ];
+    let config = StepConfig {
+        substeps: 1,
+        iterations: 10,
+        ..StepConfig::default()
+    };
+    for (name, mut solver) in scenes {
+        solver.organize();
+        group.throughput(Throughput::Elements(solver.sticks.len() as u64 * 10));
+        let mut threaded = solver.clone();
+        group.bench_function(BenchmarkId::new("serial", name), |b| {
+            b.iter(|| solver.step_with(&config, &Serial))
+        });
+        group.bench_function(BenchmarkId::new("pool", name), |b| {
+            b.iter(|| threaded.step_with(&config, &pool))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, relax, parallel, ecs_step);
 criterion_main!(benches);

@@ -198,24 +198,30 @@ pub(crate) fn relax_stick_range(
     let kinds = &sticks.kind[range.clone()];
     let rests = &sticks.rest_length[range.clone()];
     let compliances = &sticks.compliance[range.clone()];
-    for (k, (((&[a, b], &kind), &rest), &compliance)) in ends
-        .iter()
-        .zip(kinds)
-        .zip(rests)
-        .zip(compliances)
-        .enumerate()
+    // Every index the loop uses, checked once (the loop then reads without bounds checks).
+    let n = position.len().min(inverse_mass.len());
+    let largest = ends.iter().fold(0, |m: u32, &[a, b]| m.max(a).max(b));
+    assert!(
+        ends.is_empty() || (largest as usize) < n,
+        "a stick refers to a particle that does not exist"
+    );
+    assert!(!accumulate || range.end <= lambda.len());
+    for (k, (((&[a, b], &kind), &rest), &compliance)) in
+        ends.iter().zip(kinds).zip(rests).zip(compliances).enumerate()
     {
         if kind == StickKind::Torn {
             continue;
         }
         let i = range.start + k;
         let (a, b) = (a as usize, b as usize);
-        let (wa, wb) = (inverse_mass[a], inverse_mass[b]);
+        // SAFETY: `a, b < n` (checked above).
+        let (wa, wb) = unsafe { (*inverse_mass.get_unchecked(a), *inverse_mass.get_unchecked(b)) };
         let w = wa + wb;
         if w <= 0.0 {
             continue;
         }
-        let (xa, xb) = (position.get(a), position.get(b));
+        // SAFETY: `a, b < n ≤ position.len()`.
+        let (xa, xb) = unsafe { (position.get_unchecked(a), position.get_unchecked(b)) };
         let delta = xa - xb;
         let length = delta.length();
         let coincident = length < MIN_LENGTH;
@@ -224,6 +230,16 @@ pub(crate) fn relax_stick_range(
         }
         let c = length - rest;
         let alpha = compliance * inv_h2;
+        if kind == StickKind::Equal && !accumulate && !coincident {
+            // The common case in one division: Δλ/|d| = −C / ((W + α̃)·|d|).
+            let correction = delta * (-c / ((w + alpha) * length));
+            // SAFETY: `a, b < n ≤ position.len()`.
+            unsafe {
+                position.set_unchecked(a, xa + correction * wa);
+                position.set_unchecked(b, xb - correction * wb);
+            }
+            continue;
+        }
         let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
         let mut d_lambda = (-c - alpha * lambda_i) / (w + alpha);
         // One-sided sticks: the total multiplier may only pull (≤ 0) or only push (≥ 0).
@@ -240,7 +256,10 @@ pub(crate) fn relax_stick_range(
         } else {
             delta * (d_lambda / length)
         };
-        position.set(a, xa + correction * wa);
-        position.set(b, xb - correction * wb);
+        // SAFETY: `a, b < n ≤ position.len()`.
+        unsafe {
+            position.set_unchecked(a, xa + correction * wa);
+            position.set_unchecked(b, xb - correction * wb);
+        }
     }
 }
