@@ -9,10 +9,10 @@
 //! * `fixed_step_10_iterations`: a whole `app.update()` with the plugin against the core alone.
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy_verlet_physics::prelude::*;
 use bevy::tasks::ComputeTaskPool;
+use bevy::time::TimeUpdateStrategy;
 use bevy_verlet_physics::TaskPoolExecutor;
+use bevy_verlet_physics::prelude::*;
 use bevy_verlet_physics::solver::{Serial, Solver, StepConfig, StickKind, relax_sticks};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{DVec2, DVec3};
@@ -81,7 +81,12 @@ impl Bare {
     fn from(solver: &Solver) -> Self {
         Self {
             position: solver.particles.position.clone(),
-            position_2d: solver.particles.position.iter().map(|p| p.truncate()).collect(),
+            position_2d: solver
+                .particles
+                .position
+                .iter()
+                .map(|p| p.truncate())
+                .collect(),
             inverse_mass: solver.particles.inverse_mass.clone(),
             sticks: (0..solver.sticks.len())
                 .map(|i| {
@@ -294,9 +299,14 @@ fn parallel(c: &mut Criterion) {
             ropes.add_particle(DVec3::new(i as f64 * 0.01, 0.0, r as f64), 1.0);
         }
         for i in 0..100 {
-            ropes
-                .sticks
-                .push([start + i, start + i + 1], 0.01, 0.0, StickKind::Equal, f64::INFINITY, 0);
+            ropes.sticks.push(
+                [start + i, start + i + 1],
+                0.01,
+                0.0,
+                StickKind::Equal,
+                f64::INFINITY,
+                0,
+            );
         }
         ropes.pin(start, ropes.particles.position[start as usize]);
     }

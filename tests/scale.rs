@@ -189,11 +189,13 @@ fn colour_batches_share_no_particle_and_cover_every_stick_once() {
 fn parallel_solving_is_bitwise_identical_to_serial() {
     let mut serial = Solver::default();
     cloth(&mut serial, 72, 0.05, DVec3::ZERO, &[(0, 0), (71, 0)]);
-    interleaved_ropes(&mut serial, 100, 25);
+    interleaved_ropes(&mut serial, 400, 50);
     serial.organize();
     let mut threaded = serial.clone();
     let mut four = serial.clone();
-    let config = config(4, 2);
+    // 4 iterations: the cloth (10 224 sticks × 4) is solved on every thread, the 400 ropes
+    // (100 k units of work) are spread in groups.
+    let config = config(4, 4);
     for _ in 0..30 {
         serial.step_with(&config, &Serial);
         threaded.step_with(&config, &ScopedThreads(2));

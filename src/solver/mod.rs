@@ -186,6 +186,8 @@ pub struct Solver {
     /// The previous step's settings and colliders (a change wakes every island).
     pub(crate) last_config: Option<StepConfig>,
     pub(crate) last_colliders: Vec<Collider>,
+    /// Scratch counters of the parallel relaxation.
+    pub(crate) counters: parallel::Counters,
 }
 
 impl Solver {

@@ -62,8 +62,12 @@ impl Executor for ScopedThreads {
     }
 }
 
-/// A colour batch is split across threads only if each thread gets at least this many sticks.
-pub const PARALLEL_MIN_STICKS_PER_JOB: usize = 16_384;
+/// A coloured island is solved on every thread when its sticks × iterations per substep reach
+/// this (below it, the hand-off to the pool costs more than it saves; measured on a 2-core VM).
+pub const PARALLEL_MIN_STICK_ITERATIONS: usize = 32_768;
+
+/// Sticks per chunk that a thread claims at a time within a colour batch.
+pub const PARALLEL_CHUNK_STICKS: usize = 1024;
 
 /// Islands are spread across threads only if each thread gets at least this much work
 /// (particles + sticks × iterations).
@@ -85,4 +89,26 @@ pub(crate) fn part(
 ) -> std::ops::Range<usize> {
     let len = range.len();
     range.start + len * job / jobs..range.start + len * (job + 1) / jobs
+}
+
+/// Claim and completion counters for [`Solver::relax_substep`](super::Solver::relax_substep)'s
+/// parallel islands, kept between steps so a step allocates nothing once they are large enough.
+#[derive(Debug, Default)]
+pub(crate) struct Counters(pub(crate) Vec<std::sync::atomic::AtomicU32>);
+
+impl Counters {
+    /// Makes room for `n` counters.
+    pub(crate) fn ensure(&mut self, n: usize) {
+        if self.0.len() < n {
+            self.0.resize_with(n, Default::default);
+        }
+    }
+}
+
+impl Clone for Counters {
+    fn clone(&self) -> Self {
+        let mut counters = Self::default();
+        counters.ensure(self.0.len());
+        counters
+    }
 }

@@ -16,7 +16,7 @@ use super::angles::relax_angle_range;
 use super::colliders::constrain_range;
 use super::integrate::integrate_range;
 use super::parallel::{
-    Executor, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICKS_PER_JOB,
+    Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
     PARALLEL_MIN_WORK_PER_JOB, Serial, job_count, part,
 };
 use super::shared::Shared;
@@ -25,6 +25,7 @@ use super::tethers::relax_tether_range;
 use super::{Island, Solver, StepConfig, Substep, tear};
 use glam::DVec3;
 use std::ops::Range;
+use std::sync::atomic::Ordering;
 
 /// Global substep `index` of `count` in the fixed step configured by `config` (see the
 /// [module docs](self)).
@@ -226,22 +227,37 @@ impl Solver {
     /// Second phase of a substep: `iterations` relaxation sweeps (sticks by colour, angle
     /// constraints, tethers) per due island.
     pub fn relax_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
+        let threads = executor.threads();
+        // Large coloured islands are solved on every thread; the rest in groups.
+        let big = |island: &Island, substep: &Substep, batches: &[super::Batch]| {
+            threads > 1
+                && len(&island.sticks) * substep.iterations as usize
+                    >= PARALLEL_MIN_STICK_ITERATIONS
+                && batches[range(&island.batches)]
+                    .iter()
+                    .any(|b| b.independent)
+        };
+        let mut counters = 0;
+        for (island, substep) in due(&self.islands.list, global) {
+            if big(island, &substep, &self.islands.batches) {
+                let per_iteration = len(&island.batches) + 1;
+                counters = counters.max(2 * per_iteration * substep.iterations as usize);
+            }
+        }
+        self.counters.ensure(counters);
         let (mut taken, islands) = self.take();
         {
             let views = views(&mut taken);
-            let threads = executor.threads();
-            let big = |island: &Island| {
-                threads > 1 && len(&island.sticks) >= 2 * PARALLEL_MIN_STICKS_PER_JOB
-            };
-            // Large islands one at a time, each colour batch split across threads.
-            for (island, substep) in due(&islands.list, global).filter(|(i, _)| big(i)) {
-                self.relax_island(&views, &islands, island, &substep, Some(executor));
+            let is_big =
+                |island: &Island, substep: &Substep| big(island, substep, &islands.batches);
+            for (island, substep) in due(&islands.list, global).filter(|(i, s)| is_big(i, s)) {
+                self.relax_island_parallel(&views, &islands, island, &substep, executor);
             }
             // Small islands in groups of similar work, one group per job.
             let work = |island: &Island, substep: &Substep| {
                 len(&island.particles) + len(&island.sticks) * substep.iterations as usize
             };
-            let small = || due(&islands.list, global).filter(|(i, _)| !big(i));
+            let small = || due(&islands.list, global).filter(|(i, s)| !is_big(i, s));
             let total: usize = small().map(|(i, s)| work(i, &s)).sum();
             let jobs = job_count(executor, total, PARALLEL_MIN_WORK_PER_JOB);
             let relax_group = |job: usize| {
@@ -249,7 +265,7 @@ impl Solver {
                 for (island, substep) in small() {
                     // An island belongs to the job its first unit of work falls in.
                     if done * jobs / total.max(1) == job {
-                        self.relax_island(&views, &islands, island, &substep, None);
+                        self.relax_island(&views, island, &substep);
                     }
                     done += work(island, &substep);
                 }
@@ -359,67 +375,108 @@ impl Solver {
         }
     }
 
-    /// One island's relaxation: batches in order (split across threads when `executor` is
-    /// given and a batch is large and independent), then angles and tethers.
-    fn relax_island(
+    /// One island's relaxation on the calling thread: its sticks in order, then angles and
+    /// tethers, `iterations` times.
+    fn relax_island(&self, views: &Views, island: &Island, substep: &Substep) {
+        for _ in 0..substep.iterations {
+            self.relax_sticks_of(views, substep, range(&island.sticks));
+            self.relax_rest_of(views, island, substep);
+        }
+    }
+
+    /// One large island's relaxation on every thread of `executor`: colour batch after colour
+    /// batch, each cut into chunks of [`PARALLEL_CHUNK_STICKS`] that the threads claim from a
+    /// shared counter; a thread moves to the next batch once every chunk of this one is done.
+    /// No thread ever waits for another to *start* (a late thread finds every chunk claimed and
+    /// catches up), so it cannot deadlock on a busy pool, and the chunks — hence the result —
+    /// do not depend on the thread count. One hand-off per substep instead of one per batch.
+    fn relax_island_parallel(
         &self,
         views: &Views,
         islands: &super::Islands,
         island: &Island,
         substep: &Substep,
-        executor: Option<&dyn Executor>,
+        executor: &dyn Executor,
     ) {
-        let inv_h2 = 1.0 / (substep.h * substep.h);
-        let inverse_mass = &self.particles.inverse_mass;
-        let sticks = |range: Range<usize>| {
-            relax_stick_range(
-                &views.position,
-                inverse_mass,
-                &self.sticks,
-                &views.stick_lambda,
-                range,
-                inv_h2,
-                substep.accumulate,
-            );
+        let batches = &islands.batches[range(&island.batches)];
+        let has_rest = !island.angles.is_empty() || !island.tethers.is_empty();
+        let per_iteration = batches.len() + has_rest as usize;
+        let steps = per_iteration * substep.iterations as usize;
+        let counters = &self.counters.0[..2 * steps];
+        for counter in counters {
+            counter.store(0, Ordering::Relaxed);
+        }
+        let chunks_of = |k: usize| match batches.get(k) {
+            Some(batch) if batch.independent => batch.sticks.len().div_ceil(PARALLEL_CHUNK_STICKS),
+            _ => 1,
         };
-        for _ in 0..substep.iterations {
-            match executor {
-                None => sticks(range(&island.sticks)),
-                Some(executor) => {
-                    for batch in &islands.batches[range(&island.batches)] {
-                        let batch_range = range(&batch.sticks);
-                        let jobs = if batch.independent {
-                            job_count(executor, batch_range.len(), PARALLEL_MIN_STICKS_PER_JOB)
-                        } else {
-                            1
-                        };
-                        if jobs > 1 {
-                            executor.run(jobs, &|job| sticks(part(batch_range.clone(), job, jobs)));
-                        } else {
-                            sticks(batch_range);
+        let job = |_: usize| {
+            for g in 0..steps {
+                let k = g % per_iteration;
+                let chunks = chunks_of(k);
+                let (claimed, done) = (&counters[2 * g], &counters[2 * g + 1]);
+                loop {
+                    let chunk = claimed.fetch_add(1, Ordering::Relaxed) as usize;
+                    if chunk >= chunks {
+                        break;
+                    }
+                    match batches.get(k) {
+                        Some(batch) => {
+                            let sticks = part(range(&batch.sticks), chunk, chunks);
+                            self.relax_sticks_of(views, substep, sticks);
                         }
+                        None => self.relax_rest_of(views, island, substep),
+                    }
+                    // (Release: the next batch's claimers see these positions.)
+                    done.fetch_add(1, Ordering::Release);
+                }
+                let mut spins = 0u32;
+                while (done.load(Ordering::Acquire) as usize) < chunks {
+                    spins += 1;
+                    if spins < 4096 {
+                        std::hint::spin_loop();
+                    } else {
+                        std::thread::yield_now();
                     }
                 }
             }
-            if !island.angles.is_empty() {
-                relax_angle_range(
-                    &views.position,
-                    inverse_mass,
-                    &self.angles,
-                    &views.angle_lambda,
-                    range(&island.angles),
-                    inv_h2,
-                    substep.accumulate,
-                );
-            }
-            if !island.tethers.is_empty() {
-                relax_tether_range(
-                    &views.position,
-                    inverse_mass,
-                    &self.tethers,
-                    range(&island.tethers),
-                );
-            }
+        };
+        executor.run(executor.threads(), &job);
+    }
+
+    fn relax_sticks_of(&self, views: &Views, substep: &Substep, sticks: Range<usize>) {
+        relax_stick_range(
+            &views.position,
+            &self.particles.inverse_mass,
+            &self.sticks,
+            &views.stick_lambda,
+            sticks,
+            1.0 / (substep.h * substep.h),
+            substep.accumulate,
+        );
+    }
+
+    /// An island's angle constraints and tethers (one sweep).
+    fn relax_rest_of(&self, views: &Views, island: &Island, substep: &Substep) {
+        let inverse_mass = &self.particles.inverse_mass;
+        if !island.angles.is_empty() {
+            relax_angle_range(
+                &views.position,
+                inverse_mass,
+                &self.angles,
+                &views.angle_lambda,
+                range(&island.angles),
+                1.0 / (substep.h * substep.h),
+                substep.accumulate,
+            );
+        }
+        if !island.tethers.is_empty() {
+            relax_tether_range(
+                &views.position,
+                inverse_mass,
+                &self.tethers,
+                range(&island.tethers),
+            );
         }
     }
 

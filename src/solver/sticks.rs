@@ -206,8 +206,12 @@ pub(crate) fn relax_stick_range(
         "a stick refers to a particle that does not exist"
     );
     assert!(!accumulate || range.end <= lambda.len());
-    for (k, (((&[a, b], &kind), &rest), &compliance)) in
-        ends.iter().zip(kinds).zip(rests).zip(compliances).enumerate()
+    for (k, (((&[a, b], &kind), &rest), &compliance)) in ends
+        .iter()
+        .zip(kinds)
+        .zip(rests)
+        .zip(compliances)
+        .enumerate()
     {
         if kind == StickKind::Torn {
             continue;
@@ -215,7 +219,12 @@ pub(crate) fn relax_stick_range(
         let i = range.start + k;
         let (a, b) = (a as usize, b as usize);
         // SAFETY: `a, b < n` (checked above).
-        let (wa, wb) = unsafe { (*inverse_mass.get_unchecked(a), *inverse_mass.get_unchecked(b)) };
+        let (wa, wb) = unsafe {
+            (
+                *inverse_mass.get_unchecked(a),
+                *inverse_mass.get_unchecked(b),
+            )
+        };
         let w = wa + wb;
         if w <= 0.0 {
             continue;
