@@ -13,13 +13,17 @@ fn rope_sticks_stay_at_rest_length() {
             .pin_start()
             .spawn(c)
     });
-    step(&mut app, 64 * 3);
+    let mut lowest = f32::INFINITY;
+    for _ in 0..64 * 3 {
+        step(&mut app, 1);
+        lowest = lowest.min(position(&app, rope.particles[20]).y);
+    }
     assert!(all_finite(&mut app));
     let strain = max_strain(&mut app);
     assert!(strain < 0.01, "max strain {strain}");
     assert_eq!(position(&app, rope.particles[0]), Vec3::ZERO);
-    // It swung down.
-    assert!(position(&app, rope.particles[20]).y < -1.0);
+    // It swung down (its end passes well below the pin).
+    assert!(lowest < -1.5, "lowest {lowest}");
 }
 
 #[test]

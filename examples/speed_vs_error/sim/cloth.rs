@@ -61,8 +61,7 @@ impl Scene for Cloth {
     fn build(&self, setting: &Setting) -> (Solver, StepConfig) {
         let mut solver = Solver::default();
         let (n, d) = (self.size, self.spacing());
-        // Row by row from the pinned top, horizontal then vertical stick per particle, as
-        // `ClothBuilder` orders them.
+        // Row by row from the pinned top, horizontal then vertical stick per particle.
         for row in 0..n {
             for column in 0..n {
                 let position = DVec3::new(column as f64 * d - 0.5, -(row as f64) * d, 0.0);
@@ -80,6 +79,16 @@ impl Scene for Cloth {
             }
         }
         apply_tethers(&mut solver, setting);
+        // As the plugin does: one island, so particles keep their slots; the sticks are
+        // reordered by colour (the cloth is large enough).
+        let reorder = solver.organize();
+        assert!(
+            reorder
+                .particles
+                .iter()
+                .enumerate()
+                .all(|(i, &p)| p as usize == i)
+        );
         (solver, setting.config(DVec3::new(0.0, -9.81, 0.0), DAMPING))
     }
 
