@@ -352,6 +352,8 @@ impl VerletState {
     ) {
         let old_slots = std::mem::take(&mut self.slots);
         std::mem::swap(&mut self.scratch, &mut self.solver.particles);
+        let old_islands = std::mem::take(&mut self.solver.islands);
+        let mut edited = Vec::new();
         let colliders = std::mem::take(&mut self.solver.colliders);
         self.solver.clear();
         self.solver.colliders = colliders;
@@ -374,6 +376,9 @@ impl VerletState {
                     self.scratch.previous[old as usize],
                 )
             });
+            if particle.is_changed() {
+                edited.push(entity);
+            }
             let state = match old_state {
                 Some(state) if !particle.is_changed() => Some(state),
                 // An edit is gathered; an invalid edit is ignored, as without a rebuild
@@ -518,6 +523,12 @@ impl VerletState {
         }
 
         self.organize(particles);
+        // Unchanged islands sleep on; an edited particle wakes its island.
+        self.solver
+            .keep_sleep_state(&old_islands, &self.scratch.handle);
+        for entity in edited {
+            self.wake(entity);
+        }
         self.generation += 1;
         self.dirty = false;
     }

@@ -27,6 +27,20 @@ fn resting_ragdolls_fall_asleep_and_an_edit_wakes_one() {
     step(&mut app, 32);
     assert_eq!(position(&app, head), before);
 
+    // Spawning another ragdoll (a topology rebuild) leaves the sleeping ones asleep.
+    spawn(&mut app, |c| {
+        scenes::spawn_ragdoll(c, Vec3::new(0.0, 200.0, 0.0), false)
+    });
+    step(&mut app, 1);
+    assert_eq!(stats(&app).islands, 7);
+    assert_eq!(stats(&app).sleeping_islands, 6);
+    // A stick added inside a sleeping ragdoll wakes it.
+    let [a, b] = [ragdolls[5].particles[0], ragdolls[5].particles[3]];
+    spawn(&mut app, |c| c.spawn(Stick::new(a, b)).id());
+    step(&mut app, 1);
+    assert!(!app.world().resource::<VerletState>().is_sleeping(a));
+    assert_eq!(stats(&app).sleeping_islands, 5);
+
     // Lifting a particle (at rest) wakes its ragdoll, and only it.
     {
         let mut particle = app.world_mut().get_mut::<Particle>(head).unwrap();
@@ -37,7 +51,7 @@ fn resting_ragdolls_fall_asleep_and_an_edit_wakes_one() {
     let state = app.world().resource::<VerletState>();
     assert!(!state.is_sleeping(head));
     assert!(state.is_sleeping(ragdolls[0].particles[0]));
-    assert_eq!(stats(&app).sleeping_islands, 5);
+    assert_eq!(stats(&app).sleeping_islands, 4);
     let lifted = position(&app, head);
     step(&mut app, 16);
     assert_ne!(position(&app, head), lifted, "it moves again");

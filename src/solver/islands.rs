@@ -323,6 +323,62 @@ impl Solver {
         }
     }
 
+    /// After a topology rebuild, lets every island that is unchanged since `old` — the same
+    /// particles (matched by [`Particles::handle`](super::Particles::handle), which must be
+    /// unique) and as many sticks, angle constraints and pins — keep sleeping; every other
+    /// island starts awake. `old_handles[slot]` is the handle the particle in old slot `slot`
+    /// had. (The Bevy layer calls this, so spawning a ragdoll does not wake a hundred others.)
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Solver;
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// solver.add_particle(DVec3::ZERO, 1.0);
+    /// solver.particles.handle[0] = 7;
+    /// solver.organize();
+    /// solver.islands.list[0].asleep = true;
+    /// let (old, handles) = (solver.islands.clone(), solver.particles.handle.clone());
+    /// solver.organize(); // (a rebuild)
+    /// solver.keep_sleep_state(&old, &handles);
+    /// assert!(solver.islands.list[0].asleep);
+    /// ```
+    pub fn keep_sleep_state(&mut self, old: &Islands, old_handles: &[u64]) {
+        if !old.list.iter().any(|island| island.asleep) {
+            return;
+        }
+        let mut old_island_of = std::collections::HashMap::new();
+        for (k, island) in old.list.iter().enumerate() {
+            if island.asleep {
+                for slot in island.particles.clone() {
+                    if let Some(&handle) = old_handles.get(slot as usize) {
+                        old_island_of.insert(handle, k);
+                    }
+                }
+            }
+        }
+        let handles = &self.particles.handle;
+        let length = |r: &Range<u32>| r.end - r.start;
+        for island in &mut self.islands.list {
+            let first = handles[island.particles.start as usize];
+            let Some(&k) = old_island_of.get(&first) else {
+                continue;
+            };
+            let before = &old.list[k];
+            let unchanged = length(&before.particles) == length(&island.particles)
+                && length(&before.sticks) == length(&island.sticks)
+                && length(&before.angles) == length(&island.angles)
+                && length(&before.pins) == length(&island.pins)
+                && island
+                    .particles
+                    .clone()
+                    .all(|slot| old_island_of.get(&handles[slot as usize]) == Some(&k));
+            if unchanged {
+                island.asleep = true;
+                island.calm_time = before.calm_time;
+            }
+        }
+    }
+
     /// The sizes the islands are checked against.
     pub(crate) fn signature(&self) -> [usize; 4] {
         [

@@ -28,6 +28,15 @@
 //! Pinned particles have inverse mass 0 (Jakobsen: "infinite mass"), so constraints move only the
 //! free end and two pins never fight. Everything is `f64`: see [`Particles`] for why.
 //!
+//! # Scale
+//!
+//! [`Solver::organize`] (the Bevy layer calls it on every topology change) splits the particles
+//! into [`islands`] — groups connected by sticks — and reorders the arrays so each island is a
+//! contiguous range; large mesh-like islands get their sticks sorted into [`colouring`] batches
+//! (sticks that share no particle), i.e. Gauss–Seidel by colour. Islands can then be stepped
+//! with their own settings ([`IslandSettings`]), skipped while asleep ([`Sleep`]), and spread
+//! over threads by an [`Executor`] ([`Solver::step_with`]) with bit-identical results.
+//!
 //! ```
 //! use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};
 //! use glam::DVec3;
