@@ -124,6 +124,8 @@ impl Bare {
 
     /// The same sweep over the colour batches, four independent sticks at a time: gather into
     /// lane arrays, compute lane-wise (LLVM vectorises it with the target's SIMD), scatter.
+    // (Lane loops index several arrays by lane on purpose: that is what vectorises.)
+    #[allow(clippy::needless_range_loop)]
     fn relax_lanes(&mut self) {
         const L: usize = 4;
         let p = &mut self.position;
