@@ -1,9 +1,10 @@
 //! Criterion benchmarks, `cargo bench --bench solver`; compare lines within one group (their
 //! ratio is measured in the same run):
 //!
-//! * `relax_sweep`: one sweep of the solver core against a bare reference loop (the same math on
-//!   plain arrays, nothing else), on cloth grids of 32², 128², 512² particles and a 10 000-link
-//!   rope; plus two variants of the bare loop: `bare_lanes` (four independent sticks at a time,
+//! * `relax_sweep`: one sweep of the solver core (`core`: the solver's relax phase, rigid batches
+//!   on their fast path; `core_general`: `relax_sticks`, every stick kind and compliance) against a
+//!   bare reference loop (the same math on plain arrays, nothing else), on cloth grids of 32²,
+//!   128², 512² particles and a 10 000-link rope; plus two variants of the bare loop: `bare_lanes` (four independent sticks at a time,
 //!   lane arrays that LLVM vectorises) and `bare_2d` (2D positions).
 //! * `parallel_step_10_iterations`: a full core step on one thread and on Bevy's compute pool.
 //! * `fixed_step_10_iterations`: a whole `app.update()` with the plugin against the core alone.
@@ -13,7 +14,9 @@ use bevy::tasks::ComputeTaskPool;
 use bevy::time::TimeUpdateStrategy;
 use bevy_verlet_physics::TaskPoolExecutor;
 use bevy_verlet_physics::prelude::*;
-use bevy_verlet_physics::solver::{Serial, Solver, StepConfig, StickKind, relax_sticks};
+use bevy_verlet_physics::solver::{
+    GlobalSubstep, Serial, Solver, StepConfig, StickKind, relax_sticks,
+};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{DVec2, DVec3};
 use std::hint::black_box;
@@ -223,7 +226,23 @@ fn relax(c: &mut Criterion) {
         }
         let mut bare = Bare::from(&solver);
         group.throughput(Throughput::Elements(solver.sticks.len() as u64));
+        // The solver's own sweep: one relax phase of one substep, 1 iteration, one thread.
+        let sweep = StepConfig {
+            substeps: 1,
+            iterations: 1,
+            ..StepConfig::default()
+        };
+        let count = solver.begin_step(&sweep);
+        let substep = GlobalSubstep {
+            config: sweep,
+            index: 1,
+            count,
+            plain: false,
+        };
         group.bench_function(BenchmarkId::new("core", name), |b| {
+            b.iter(|| solver.relax_substep(&substep, &Serial))
+        });
+        group.bench_function(BenchmarkId::new("core_general", name), |b| {
             b.iter(|| relax_sticks(&mut solver.particles, &mut solver.sticks, 1.0 / 64.0, false))
         });
         group.bench_function(BenchmarkId::new("bare", name), |b| b.iter(|| bare.relax()));

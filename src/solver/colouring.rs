@@ -27,6 +27,11 @@ pub struct Batch {
     pub sticks: Range<u32>,
     /// `true` when no two sticks of the batch share a particle (it may be split across threads).
     pub independent: bool,
+    /// `true` when every stick of the batch is two-sided, rigid (compliance 0) and cannot tear:
+    /// the sweep then reads only ends and rest lengths. [`Solver::organize`](super::Solver::organize)
+    /// sets it and a tear clears it; set it to `false` if you change kinds or compliances of
+    /// organized sticks by hand.
+    pub rigid: bool,
 }
 
 /// Greedy edge colouring: `colour[i]` for every stick `order[i]`, visiting sticks in `order`.

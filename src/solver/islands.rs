@@ -290,9 +290,16 @@ impl Solver {
                 {
                     stick += 1;
                 }
+                let sticks = &self.sticks;
+                let rigid = (batch_start..stick).all(|i| {
+                    sticks.kind[i] == StickKind::Equal
+                        && sticks.compliance[i] == 0.0
+                        && !sticks.tear_strain[i].is_finite()
+                });
                 islands.batches.push(Batch {
                     sticks: batch_start as u32..stick as u32,
                     independent: c < MAX_COLOURS,
+                    rigid,
                 });
             }
             let first_angle = angle;
@@ -406,6 +413,7 @@ impl Solver {
         islands.batches.push(Batch {
             sticks: 0..self.sticks.len() as u32,
             independent: false,
+            rigid: false,
         });
         islands.list.push(Island {
             particles: 0..self.particles.len() as u32,

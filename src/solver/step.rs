@@ -265,7 +265,7 @@ impl Solver {
                 for (island, substep) in small() {
                     // An island belongs to the job its first unit of work falls in.
                     if done * jobs / total.max(1) == job {
-                        self.relax_island(&views, island, &substep);
+                        self.relax_island(&views, &islands, island, &substep);
                     }
                     done += work(island, &substep);
                 }
@@ -328,6 +328,10 @@ impl Solver {
         }
         let torn = tear(&self.particles, &mut self.sticks, &mut self.torn);
         if torn > 0 {
+            // Torn sticks must be skipped: no batch is known all-rigid any more.
+            for batch in &mut self.islands.batches {
+                batch.rigid = false;
+            }
             // A torn island is no longer calm.
             for &stick in &self.torn {
                 let particle = self.sticks.ends[stick as usize][0];
@@ -377,9 +381,17 @@ impl Solver {
 
     /// One island's relaxation on the calling thread: its sticks in order, then angles and
     /// tethers, `iterations` times.
-    fn relax_island(&self, views: &Views, island: &Island, substep: &Substep) {
+    fn relax_island(
+        &self,
+        views: &Views,
+        islands: &super::Islands,
+        island: &Island,
+        substep: &Substep,
+    ) {
         for _ in 0..substep.iterations {
-            self.relax_sticks_of(views, substep, range(&island.sticks));
+            for batch in &islands.batches[range(&island.batches)] {
+                self.relax_sticks_of(views, substep, batch);
+            }
             self.relax_rest_of(views, island, substep);
         }
     }
@@ -423,7 +435,7 @@ impl Solver {
                     match batches.get(k) {
                         Some(batch) => {
                             let sticks = part(range(&batch.sticks), chunk, chunks);
-                            self.relax_sticks_of(views, substep, sticks);
+                            self.relax_stick_part(views, substep, sticks, batch.rigid);
                         }
                         None => self.relax_rest_of(views, island, substep),
                     }
@@ -444,7 +456,17 @@ impl Solver {
         executor.run(executor.threads(), &job);
     }
 
-    fn relax_sticks_of(&self, views: &Views, substep: &Substep, sticks: Range<usize>) {
+    fn relax_sticks_of(&self, views: &Views, substep: &Substep, batch: &super::Batch) {
+        self.relax_stick_part(views, substep, range(&batch.sticks), batch.rigid);
+    }
+
+    fn relax_stick_part(
+        &self,
+        views: &Views,
+        substep: &Substep,
+        sticks: Range<usize>,
+        rigid: bool,
+    ) {
         relax_stick_range(
             &views.position,
             &self.particles.inverse_mass,
@@ -453,6 +475,7 @@ impl Solver {
             sticks,
             1.0 / (substep.h * substep.h),
             substep.accumulate,
+            rigid,
         );
     }
 

@@ -179,12 +179,17 @@ pub fn relax_sticks(particles: &mut Particles, sticks: &mut Sticks, h: f64, accu
         0..sticks.len(),
         1.0 / (h * h),
         accumulate,
+        false,
     );
     sticks.lambda = lambda;
 }
 
 /// [`relax_sticks`] over the sticks in `range`, with positions and multipliers that other tasks
-/// may be writing at other indices (the sticks' particles are this task's alone).
+/// may be writing at other indices (the sticks' particles are this task's alone). `rigid` says
+/// every stick of the range is a two-sided stick of compliance 0 (see
+/// [`Batch::rigid`](super::Batch::rigid)): then only ends and rest lengths are read, and no
+/// multiplier is kept (with `α = 0` it changes nothing).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn relax_stick_range(
     position: &Shared<DVec3>,
     inverse_mass: &[f64],
@@ -193,6 +198,7 @@ pub(crate) fn relax_stick_range(
     range: Range<usize>,
     inv_h2: f64,
     accumulate: bool,
+    rigid: bool,
 ) {
     let ends = &sticks.ends[range.clone()];
     let kinds = &sticks.kind[range.clone()];
@@ -206,6 +212,40 @@ pub(crate) fn relax_stick_range(
         "a stick refers to a particle that does not exist"
     );
     assert!(!accumulate || range.end <= lambda.len());
+    if rigid {
+        let rests = &sticks.rest_length[range.clone()];
+        for (k, (&[a, b], &rest)) in ends.iter().zip(rests).enumerate() {
+            let (a, b) = (a as usize, b as usize);
+            // SAFETY: `a, b < n` (checked above).
+            let (wa, wb) = unsafe {
+                (
+                    *inverse_mass.get_unchecked(a),
+                    *inverse_mass.get_unchecked(b),
+                )
+            };
+            let w = wa + wb;
+            if w <= 0.0 {
+                continue;
+            }
+            // SAFETY: `a, b < n ≤ position.len()`.
+            let (xa, xb) = unsafe { (position.get_unchecked(a), position.get_unchecked(b)) };
+            let delta = xa - xb;
+            let length = delta.length();
+            let correction = if length >= MIN_LENGTH {
+                delta * ((rest - length) / (w * length))
+            } else if rest >= MIN_LENGTH {
+                coincident_direction(range.start + k) * ((rest - length) / w)
+            } else {
+                continue;
+            };
+            // SAFETY: `a, b < n ≤ position.len()`.
+            unsafe {
+                position.set_unchecked(a, xa + correction * wa);
+                position.set_unchecked(b, xb - correction * wb);
+            }
+        }
+        return;
+    }
     for (k, (((&[a, b], &kind), &rest), &compliance)) in ends
         .iter()
         .zip(kinds)
