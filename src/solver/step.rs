@@ -185,28 +185,17 @@ impl Solver {
         {
             let views = views(&mut taken);
             let particles = &self.particles;
-            let work: usize = due(&islands.list, global)
-                .map(|(i, _)| len(&i.particles))
-                .sum();
-            let jobs = job_count(executor, work, PARALLEL_MIN_PARTICLES_PER_JOB);
-            let integrate = |job: usize| {
-                for (island, substep) in due(&islands.list, global) {
-                    integrate_range(
-                        &views.position,
-                        &views.previous,
-                        &particles.inverse_mass,
-                        part(range(&island.particles), job, jobs),
-                        substep.gravity,
-                        substep.h,
-                        substep.damping_factor,
-                    );
-                }
-            };
-            if jobs > 1 {
-                executor.run(jobs, &integrate);
-            } else {
-                integrate(0);
-            }
+            for_due_particles(&islands.list, global, executor, &|slots, substep| {
+                integrate_range(
+                    &views.position,
+                    &views.previous,
+                    &particles.inverse_mass,
+                    slots,
+                    substep.gravity,
+                    substep.h,
+                    substep.damping_factor,
+                );
+            });
             for (island, substep) in due(&islands.list, global) {
                 let fraction = substep.index as f64 / substep.count as f64;
                 self.pins
@@ -288,28 +277,17 @@ impl Solver {
         {
             let views = views(&mut taken);
             let particles = &self.particles;
-            let work: usize = due(&islands.list, global)
-                .map(|(i, _)| len(&i.particles))
-                .sum();
-            let jobs = job_count(executor, work, PARALLEL_MIN_PARTICLES_PER_JOB);
-            let constrain = |job: usize| {
-                for (island, substep) in due(&islands.list, global) {
-                    let gravity_step = substep.gravity.length() * substep.h * substep.h;
-                    constrain_range(
-                        &views.position,
-                        &views.previous,
-                        (&particles.inverse_mass, &particles.radius),
-                        &self.colliders,
-                        part(range(&island.particles), job, jobs),
-                        gravity_step,
-                    );
-                }
-            };
-            if jobs > 1 {
-                executor.run(jobs, &constrain);
-            } else {
-                constrain(0);
-            }
+            for_due_particles(&islands.list, global, executor, &|slots, substep| {
+                let gravity_step = substep.gravity.length() * substep.h * substep.h;
+                constrain_range(
+                    &views.position,
+                    &views.previous,
+                    (&particles.inverse_mass, &particles.radius),
+                    &self.colliders,
+                    slots,
+                    gravity_step,
+                );
+            });
         }
         self.give_back(taken, islands);
     }
@@ -531,6 +509,30 @@ fn views(taken: &mut Taken) -> Views<'_> {
         previous: Shared::new(&mut taken.previous),
         stick_lambda: Shared::new(&mut taken.stick_lambda),
         angle_lambda: Shared::new(&mut taken.angle_lambda),
+    }
+}
+
+/// Runs `f(slots, substep)` over the particles of every due island, each island's range cut into
+/// near-equal parts across jobs when there are enough particles for every thread.
+fn for_due_particles(
+    islands: &[Island],
+    global: &GlobalSubstep,
+    executor: &dyn Executor,
+    f: &(dyn Fn(Range<usize>, &Substep) + Sync),
+) {
+    let work: usize = due(islands, global)
+        .map(|(island, _)| len(&island.particles))
+        .sum();
+    let jobs = job_count(executor, work, PARALLEL_MIN_PARTICLES_PER_JOB);
+    let job = |job: usize| {
+        for (island, substep) in due(islands, global) {
+            f(part(range(&island.particles), job, jobs), &substep);
+        }
+    };
+    if jobs > 1 {
+        executor.run(jobs, &job);
+    } else {
+        job(0);
     }
 }
 

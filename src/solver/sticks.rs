@@ -152,6 +152,51 @@ fn coincident_direction(i: usize) -> DVec3 {
     DVec3::new(cos, sin, 0.0)
 }
 
+/// A stick's two ends as the sweeps need them.
+struct End {
+    a: usize,
+    b: usize,
+    wa: f64,
+    wb: f64,
+    xa: DVec3,
+    xb: DVec3,
+}
+
+impl End {
+    /// Reads both ends without bounds checks.
+    ///
+    /// # Safety
+    /// Both indices are below `position.len()` and `inverse_mass.len()`.
+    #[inline(always)]
+    unsafe fn load(position: &Shared<DVec3>, inverse_mass: &[f64], [a, b]: [u32; 2]) -> Self {
+        let (a, b) = (a as usize, b as usize);
+        // SAFETY: in bounds (caller).
+        unsafe {
+            Self {
+                a,
+                b,
+                wa: *inverse_mass.get_unchecked(a),
+                wb: *inverse_mass.get_unchecked(b),
+                xa: position.get_unchecked(a),
+                xb: position.get_unchecked(b),
+            }
+        }
+    }
+
+    /// Moves end `a` by `correction·w_a` and end `b` by `−correction·w_b`.
+    ///
+    /// # Safety
+    /// As for [`End::load`].
+    #[inline(always)]
+    unsafe fn apply(&self, position: &Shared<DVec3>, correction: DVec3) {
+        // SAFETY: in bounds (caller).
+        unsafe {
+            position.set_unchecked(self.a, self.xa + correction * self.wa);
+            position.set_unchecked(self.b, self.xb - correction * self.wb);
+        }
+    }
+}
+
 /// Projects every stick once (one Gauss–Seidel sweep), for a substep of length `h`.
 ///
 /// `accumulate` selects full XPBD with the multipliers in [`Sticks::lambda`] (needed when a
@@ -214,22 +259,14 @@ pub(crate) fn relax_stick_range(
     assert!(!accumulate || range.end <= lambda.len());
     if rigid {
         let rests = &sticks.rest_length[range.clone()];
-        for (k, (&[a, b], &rest)) in ends.iter().zip(rests).enumerate() {
-            let (a, b) = (a as usize, b as usize);
-            // SAFETY: `a, b < n` (checked above).
-            let (wa, wb) = unsafe {
-                (
-                    *inverse_mass.get_unchecked(a),
-                    *inverse_mass.get_unchecked(b),
-                )
-            };
-            let w = wa + wb;
+        for (k, (&pair, &rest)) in ends.iter().zip(rests).enumerate() {
+            // SAFETY: both ends `< n` (checked above).
+            let end = unsafe { End::load(position, inverse_mass, pair) };
+            let w = end.wa + end.wb;
             if w <= 0.0 {
                 continue;
             }
-            // SAFETY: `a, b < n ≤ position.len()`.
-            let (xa, xb) = unsafe { (position.get_unchecked(a), position.get_unchecked(b)) };
-            let delta = xa - xb;
+            let delta = end.xa - end.xb;
             let length = delta.length();
             let correction = if length >= MIN_LENGTH {
                 delta * ((rest - length) / (w * length))
@@ -238,15 +275,12 @@ pub(crate) fn relax_stick_range(
             } else {
                 continue;
             };
-            // SAFETY: `a, b < n ≤ position.len()`.
-            unsafe {
-                position.set_unchecked(a, xa + correction * wa);
-                position.set_unchecked(b, xb - correction * wb);
-            }
+            // SAFETY: as above.
+            unsafe { end.apply(position, correction) };
         }
         return;
     }
-    for (k, (((&[a, b], &kind), &rest), &compliance)) in ends
+    for (k, (((&pair, &kind), &rest), &compliance)) in ends
         .iter()
         .zip(kinds)
         .zip(rests)
@@ -257,21 +291,13 @@ pub(crate) fn relax_stick_range(
             continue;
         }
         let i = range.start + k;
-        let (a, b) = (a as usize, b as usize);
-        // SAFETY: `a, b < n` (checked above).
-        let (wa, wb) = unsafe {
-            (
-                *inverse_mass.get_unchecked(a),
-                *inverse_mass.get_unchecked(b),
-            )
-        };
-        let w = wa + wb;
+        // SAFETY: both ends `< n` (checked above).
+        let end = unsafe { End::load(position, inverse_mass, pair) };
+        let w = end.wa + end.wb;
         if w <= 0.0 {
             continue;
         }
-        // SAFETY: `a, b < n ≤ position.len()`.
-        let (xa, xb) = unsafe { (position.get_unchecked(a), position.get_unchecked(b)) };
-        let delta = xa - xb;
+        let delta = end.xa - end.xb;
         let length = delta.length();
         let coincident = length < MIN_LENGTH;
         if coincident && rest < MIN_LENGTH {
@@ -282,11 +308,8 @@ pub(crate) fn relax_stick_range(
         if kind == StickKind::Equal && !accumulate && !coincident {
             // The common case in one division: Δλ/|d| = −C / ((W + α̃)·|d|).
             let correction = delta * (-c / ((w + alpha) * length));
-            // SAFETY: `a, b < n ≤ position.len()`.
-            unsafe {
-                position.set_unchecked(a, xa + correction * wa);
-                position.set_unchecked(b, xb - correction * wb);
-            }
+            // SAFETY: as above.
+            unsafe { end.apply(position, correction) };
             continue;
         }
         let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
@@ -305,10 +328,7 @@ pub(crate) fn relax_stick_range(
         } else {
             delta * (d_lambda / length)
         };
-        // SAFETY: `a, b < n ≤ position.len()`.
-        unsafe {
-            position.set_unchecked(a, xa + correction * wa);
-            position.set_unchecked(b, xb - correction * wb);
-        }
+        // SAFETY: as above.
+        unsafe { end.apply(position, correction) };
     }
 }
