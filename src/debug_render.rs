@@ -40,6 +40,8 @@ pub struct VerletGizmos {
     pub spheres: bool,
     /// Colour of bounds and sphere colliders (`None` = not drawn; planes are never drawn).
     pub collider_color: Option<Color>,
+    /// Opacity of the sticks of sleeping islands (`1` = drawn like the others).
+    pub sleeping_alpha: f32,
 }
 
 impl Default for VerletGizmos {
@@ -54,6 +56,7 @@ impl Default for VerletGizmos {
             strain_scale: 0.1,
             spheres: false,
             collider_color: Some(Color::srgb(0.35, 0.38, 0.45)),
+            sleeping_alpha: 0.45,
         }
     }
 }
@@ -140,6 +143,13 @@ fn draw(
         return;
     }
     let position = |slot: u32| state.render_position(slot as usize, fraction);
+    // Islands hold sticks in contiguous ranges, in order: follow them with a cursor.
+    let islands = if solver.is_organized() {
+        &solver.islands.list[..]
+    } else {
+        &[]
+    };
+    let mut island = 0;
     for (i, &[a, b]) in solver.sticks.ends.iter().enumerate() {
         if solver.sticks.kind[i] == StickKind::Torn {
             continue;
@@ -148,6 +158,12 @@ fn draw(
             continue; // hidden
         };
         let mut color = color.unwrap_or(style.stick_color);
+        while island < islands.len() && islands[island].sticks.end as usize <= i {
+            island += 1;
+        }
+        if islands.get(island).is_some_and(|k| k.asleep) {
+            color = color.with_alpha(color.alpha() * style.sleeping_alpha);
+        }
         let (pa, pb) = (position(a), position(b));
         if style.strain_colors {
             let rest = solver.sticks.rest_length[i] as f32;

@@ -119,3 +119,57 @@ fn cloth_mesh_vertices_and_normals_follow_the_particles() {
     // The cloth has fallen from its flat start, so the mesh is not flat any more.
     assert!(positions.iter().any(|p| p[1] < -0.05));
 }
+
+/// Opacity of every line the debug renderer emitted last frame.
+fn line_alphas(app: &App) -> Vec<f32> {
+    let handles = app.world().resource::<GizmoHandles>();
+    let Some(Some(handle)) = handles.handles().get(&TypeId::of::<VerletGizmos>()) else {
+        return Vec::new();
+    };
+    let assets = app.world().resource::<Assets<GizmoAsset>>();
+    assets.get(handle).map_or(Vec::new(), |asset| {
+        asset.buffer().list_colors.iter().map(|c| c.alpha).collect()
+    })
+}
+
+#[test]
+fn sleeping_islands_are_drawn_faded() {
+    let mut app = gizmo_app();
+    {
+        let mut store = app.world_mut().resource_mut::<GizmoConfigStore>();
+        let (_, style) = store.config_mut::<VerletGizmos>();
+        style.pin_color = None;
+        style.particle_color = None;
+    }
+    app.insert_resource(VerletConfig {
+        damping: 5.0,
+        ..default()
+    });
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0), 4)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    app.update();
+    assert!(line_alphas(&app).iter().all(|&a| a == 1.0));
+    let mut steps = 0;
+    while !app
+        .world()
+        .resource::<VerletState>()
+        .is_sleeping(rope.particles[1])
+    {
+        app.update();
+        steps += 1;
+        assert!(steps < 64 * 10, "the hanging rope falls asleep");
+    }
+    app.update();
+    let alphas = line_alphas(&app);
+    assert_eq!(alphas.len(), 8, "four sticks, two points each");
+    assert!(
+        alphas.iter().all(|&a| (a - 0.45).abs() < 1e-6),
+        "{alphas:?}"
+    );
+}

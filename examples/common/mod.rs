@@ -111,9 +111,11 @@ fn update_overlay(
         return;
     };
     text.0 = format!(
-        "particles {}  sticks {}  torn {}  solver {:.0} us/step  {} substeps x {} iterations  gravity {}{}",
+        "particles {}  sticks {}  islands {} ({} asleep)  torn {}  solver {:.0} us/step  {} substeps x {} iterations  gravity {}{}",
         stats.particles,
         stats.sticks,
+        stats.islands,
+        stats.sleeping_islands,
         torn.0,
         stats.step_micros,
         config.substeps,
