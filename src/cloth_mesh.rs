@@ -93,8 +93,9 @@ fn update_cloth_meshes(
     cloths: Query<(&ClothMesh, &Mesh3d, Option<&GlobalTransform>)>,
     particles: Query<&Particle>,
     mut meshes: ResMut<Assets<Mesh>>,
-    mut positions: Local<Vec<[f32; 3]>>,
+    mut scratch: Local<(Vec<[f32; 3]>, Vec<[f32; 3]>)>,
 ) {
+    let (positions, normals) = &mut *scratch;
     let fraction = time.overstep_fraction();
     for (cloth, mesh, transform) in &cloths {
         // Particles are in world space; undo the mesh entity's own transform.
@@ -114,13 +115,49 @@ fn update_cloth_meshes(
         if mesh.count_vertices() != positions.len() {
             continue;
         }
-        // Overwrite the positions in place (no per-frame allocation for them).
-        match mesh.try_attribute_mut(Mesh::ATTRIBUTE_POSITION) {
-            Ok(VertexAttributeValues::Float32x3(values)) if values.len() == positions.len() => {
-                values.copy_from_slice(&positions);
+        grid_normals(cloth.columns, cloth.rows, positions, normals);
+        // Overwrite positions and normals in place (no per-frame allocation).
+        for (attribute, values) in [
+            (Mesh::ATTRIBUTE_POSITION, &*positions),
+            (Mesh::ATTRIBUTE_NORMAL, &*normals),
+        ] {
+            match mesh.try_attribute_mut(attribute.clone()) {
+                Ok(VertexAttributeValues::Float32x3(old)) if old.len() == values.len() => {
+                    old.copy_from_slice(values);
+                }
+                _ => mesh.insert_attribute(attribute, values.clone()),
             }
-            _ => mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions.clone()),
         }
-        mesh.compute_smooth_normals();
+    }
+}
+
+/// Smooth vertex normals of a row-major `columns × rows` grid mesh (the triangles of
+/// [`ClothMesh::mesh`]): the area-weighted sum of the adjacent triangles' normals, normalized.
+/// Writes into `normals`, reusing its allocation.
+fn grid_normals(columns: usize, rows: usize, positions: &[[f32; 3]], normals: &mut Vec<[f32; 3]>) {
+    normals.clear();
+    normals.resize(positions.len(), [0.0; 3]);
+    if positions.len() != columns * rows {
+        return;
+    }
+    let at = |i: usize| Vec3::from_array(positions[i]);
+    let mut add = |i: usize, n: Vec3| {
+        normals[i] = (Vec3::from_array(normals[i]) + n).to_array();
+    };
+    for row in 1..rows {
+        for column in 1..columns {
+            let a = (row - 1) * columns + column - 1;
+            let (b, c, d) = (a + 1, a + columns, a + columns + 1);
+            // The same two triangles as the mesh's indices: (a, c, b) and (b, c, d).
+            for [p, q, r] in [[a, c, b], [b, c, d]] {
+                let n = (at(q) - at(p)).cross(at(r) - at(p)); // |n| = 2 × area
+                add(p, n);
+                add(q, n);
+                add(r, n);
+            }
+        }
+    }
+    for n in normals.iter_mut() {
+        *n = Vec3::from_array(*n).normalize_or(Vec3::Z).to_array();
     }
 }

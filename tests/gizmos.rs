@@ -106,6 +106,18 @@ fn cloth_mesh_vertices_and_normals_follow_the_particles() {
     else {
         panic!("no normals");
     };
+    // The in-place normals are Bevy's area-weighted smooth normals of the same mesh.
+    let mut reference = mesh.clone();
+    reference.compute_area_weighted_normals();
+    let Some(bevy::mesh::VertexAttributeValues::Float32x3(expected_normals)) =
+        reference.attribute(Mesh::ATTRIBUTE_NORMAL)
+    else {
+        panic!("no reference normals");
+    };
+    for (i, (n, e)) in normals.iter().zip(expected_normals).enumerate() {
+        let (n, e) = (Vec3::from(*n), Vec3::from(*e));
+        assert!((n - e).length() < 1e-4, "normal {i}: {n} vs {e}");
+    }
     let fraction = world.resource::<Time<Fixed>>().overstep_fraction();
     for (i, &entity) in cloth.particles.iter().enumerate() {
         let expected = world
