@@ -93,9 +93,10 @@ fn update_cloth_meshes(
     cloths: Query<(&ClothMesh, &Mesh3d, Option<&GlobalTransform>)>,
     particles: Query<&Particle>,
     mut meshes: ResMut<Assets<Mesh>>,
-    mut scratch: Local<(Vec<[f32; 3]>, Vec<[f32; 3]>)>,
+    mut positions: Local<Vec<[f32; 3]>>,
+    mut normals: Local<Vec<[f32; 3]>>,
 ) {
-    let (positions, normals) = &mut *scratch;
+    let (positions, normals) = (&mut *positions, &mut *normals);
     let fraction = time.overstep_fraction();
     for (cloth, mesh, transform) in &cloths {
         // Particles are in world space; undo the mesh entity's own transform.
