@@ -122,7 +122,7 @@ fn update_cloth_meshes(
             (Mesh::ATTRIBUTE_POSITION, &*positions),
             (Mesh::ATTRIBUTE_NORMAL, &*normals),
         ] {
-            match mesh.try_attribute_mut(attribute.clone()) {
+            match mesh.try_attribute_mut(attribute) {
                 Ok(VertexAttributeValues::Float32x3(old)) if old.len() == values.len() => {
                     old.copy_from_slice(values);
                 }
