@@ -27,8 +27,13 @@ use glam::DVec3;
 use std::ops::Range;
 use std::sync::atomic::Ordering;
 
-/// Global substep `index` of `count` in the fixed step configured by `config` (see the
-/// [module docs](self)).
+/// Global substep `index` of `count` in the fixed step configured by `config`.
+///
+/// Islands advance in lockstep through `count` global substeps, `count` being the largest
+/// substep count of any awake island ([`Solver::begin_step`]). An island with `S ≤ count`
+/// substeps takes its `j`-th substep at the first global substep `k` with `k·S/count ≥ j`
+/// ([`GlobalSubstep::for_island`]), so every island takes exactly its own count, evenly
+/// spread, with its own `h = Δt/S`. Sleeping islands take none.
 ///
 /// ```
 /// use bevy_verlet_physics::solver::{GlobalSubstep, Solver, StepConfig, Serial};
