@@ -87,6 +87,29 @@ pub struct Island {
     pub calm_time: f64,
 }
 
+impl Island {
+    /// The step's settings with this island's overrides applied (substeps and iterations ≥ 1).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Island, IslandSettings, StepConfig};
+    /// let island = Island {
+    ///     settings: Some(IslandSettings { substeps: 2, iterations: 3 }),
+    ///     ..Island::default()
+    /// };
+    /// assert_eq!(island.config(&StepConfig::default()).substeps, 2);
+    /// ```
+    pub fn config(&self, step: &super::StepConfig) -> super::StepConfig {
+        let mut config = *step;
+        if let Some(settings) = self.settings {
+            config.substeps = settings.substeps;
+            config.iterations = settings.iterations;
+        }
+        config.substeps = config.substeps.max(1);
+        config.iterations = config.iterations.max(1);
+        config
+    }
+}
+
 /// The islands of the current topology.
 #[derive(Clone, Debug, Default)]
 pub struct Islands {

@@ -66,12 +66,8 @@ impl GlobalSubstep {
         if island.asleep {
             return None;
         }
-        let mut config = self.config;
-        if let Some(settings) = island.settings {
-            config.substeps = settings.substeps;
-            config.iterations = settings.iterations;
-        }
-        let substeps = config.substeps.max(1);
+        let config = island.config(&self.config);
+        let substeps = config.substeps;
         let count = self.count.max(substeps);
         let j = self.index * substeps / count;
         if j == (self.index - 1) * substeps / count {
@@ -110,19 +106,33 @@ impl Solver {
 
     /// [`Solver::step`], spreading work over `executor` (same result as serial).
     pub fn step_with(&mut self, config: &StepConfig, executor: &dyn Executor) {
+        self.step_observed(config, false, executor, |_, _| {});
+    }
+
+    /// [`Solver::step_with`], calling `observe(solver, substep)` after every global substep;
+    /// `plain` never accumulates XPBD multipliers (plain PBD, for comparisons). Returns how many
+    /// sticks tore.
+    pub fn step_observed(
+        &mut self,
+        config: &StepConfig,
+        plain: bool,
+        executor: &dyn Executor,
+        mut observe: impl FnMut(&Solver, &GlobalSubstep),
+    ) -> usize {
         let count = self.begin_step(config);
         for index in 1..=count {
             let substep = GlobalSubstep {
                 config: *config,
                 index,
                 count,
-                plain: false,
+                plain,
             };
             self.integrate_substep(&substep, executor);
             self.relax_substep(&substep, executor);
             self.constrain_substep(&substep, executor);
+            observe(self, &substep);
         }
-        self.finish_step();
+        self.finish_step()
     }
 
     /// Starts a fixed step: checks the islands (one island in array order if the topology
@@ -156,8 +166,7 @@ impl Solver {
                 island.calm_time = 0.0;
             }
             if !island.asleep {
-                let substeps = island.settings.map_or(config.substeps, |s| s.substeps);
-                count = count.max(substeps);
+                count = count.max(island.config(config).substeps);
             }
         }
         self.current = Some(*config);
@@ -337,11 +346,7 @@ impl Solver {
             if island.asleep {
                 continue;
             }
-            let substeps = island
-                .settings
-                .map_or(config.substeps, |s| s.substeps)
-                .max(1);
-            let h = config.timestep / substeps as f64;
+            let h = island.config(config).substep();
             let limit = (sleep.speed * h).powi(2);
             let calm = !self.pins.moving(range(&island.pins))
                 && range(&island.particles).all(|i| {

@@ -19,7 +19,7 @@ pub mod reference;
 pub mod spring;
 
 use bevy_verlet_physics::Stiffness;
-use bevy_verlet_physics::solver::{GlobalSubstep, Serial, Solver, StepConfig, StickKind};
+use bevy_verlet_physics::solver::{Serial, Solver, StepConfig, StickKind};
 use glam::DVec3;
 
 /// Bevy's default fixed step (64 Hz), used by every scene.
@@ -141,20 +141,13 @@ pub fn step(
     config: &StepConfig,
     mut observe: impl FnMut(&Solver, f64),
 ) {
-    let count = solver.begin_step(config);
-    for index in 1..=count {
-        let substep = GlobalSubstep {
-            config: *config,
-            index,
-            count,
-            plain: setting.law == Law::Plain,
-        };
-        solver.integrate_substep(&substep, &Serial);
-        solver.relax_substep(&substep, &Serial);
-        solver.constrain_substep(&substep, &Serial);
-        observe(solver, index as f64 * config.timestep / count as f64);
-    }
-    solver.finish_step();
+    let plain = setting.law == Law::Plain;
+    solver.step_observed(config, plain, &Serial, |solver, substep| {
+        observe(
+            solver,
+            substep.index as f64 * config.timestep / substep.count as f64,
+        )
+    });
 }
 
 /// Runs `steps` fixed steps without observing anything.
