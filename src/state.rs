@@ -154,9 +154,10 @@ impl VerletState {
         let Some(slot) = self.slot(entity) else {
             return false;
         };
-        let list = &self.solver.islands.list;
-        let k = list.partition_point(|island| island.particles.end <= slot);
-        list.get(k).is_some_and(|island| island.asleep)
+        let islands = &self.solver.islands;
+        islands
+            .of_particle(slot)
+            .is_some_and(|k| islands.list[k].asleep)
     }
 
     /// Index of the pin of particle `slot` (pins are kept sorted by particle).

@@ -17,7 +17,7 @@ use glam::DVec3;
 #[derive(Resource, Default)]
 pub(crate) struct StepClock {
     started: Option<Instant>,
-    /// Time spent gathering (prepare) and solving (substeps and tear) in this step, in µs.
+    /// Time spent gathering (prepare) and solving (the substeps) in this step, in µs.
     gather: f32,
     solve: f32,
 }

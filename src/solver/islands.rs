@@ -132,6 +132,16 @@ pub struct Islands {
 /// stable one (see [`colouring`](super::colouring)).
 pub const COLOUR_MIN_STICKS: usize = 2048;
 
+impl Islands {
+    /// Index of the island that holds particle `slot` (islands are contiguous and in order).
+    pub fn of_particle(&self, slot: u32) -> Option<usize> {
+        let k = self
+            .list
+            .partition_point(|island| island.particles.end <= slot);
+        (k < self.list.len()).then_some(k)
+    }
+}
+
 /// How [`Solver::organize`] reordered the arrays.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Reorder {
@@ -469,9 +479,8 @@ impl Solver {
             island.settings = None;
         }
         for &(particle, settings) in &self.island_settings {
-            let list = &mut self.islands.list;
-            let k = list.partition_point(|i| i.particles.end <= particle);
-            if let Some(island) = list.get_mut(k) {
+            if let Some(k) = self.islands.of_particle(particle) {
+                let island = &mut self.islands.list[k];
                 island.settings = Some(island.settings.map_or(settings, |s| s.max(settings)));
             }
         }

@@ -149,10 +149,8 @@ impl Solver {
         self.last_config = Some(*config);
         self.last_colliders.clone_from(&self.colliders);
         for i in 0..self.wake_requests.len() {
-            let particle = self.wake_requests[i];
-            let list = &mut self.islands.list;
-            let k = list.partition_point(|island| island.particles.end <= particle);
-            if let Some(island) = list.get_mut(k) {
+            if let Some(k) = self.islands.of_particle(self.wake_requests[i]) {
+                let island = &mut self.islands.list[k];
                 island.asleep = false;
                 island.calm_time = 0.0;
             }
