@@ -246,6 +246,7 @@ fn main() {
         gravity: world.resource::<Gravity>().0.as_dvec3(),
         damping: 0.0,
         sleep: None,
+        shake: true,
     };
     let pool = ComputeTaskPool::get();
     let executor: &dyn Executor = if options.threads == Some(1) {

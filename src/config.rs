@@ -38,6 +38,48 @@ pub struct VerletConfig {
     /// Spread the solve over Bevy's `ComputeTaskPool` when a scene is large enough (results are
     /// identical either way; `false` keeps everything on the calling thread).
     pub parallel: bool,
+    /// How islands are solved (see [`SolveMethod`]; changing it rebuilds the topology).
+    pub method: SolveMethod,
+    /// Islands solved by lines keep their energy (SHAKE: corrections along each stick's
+    /// direction at the start of the substep) instead of losing it like the position
+    /// projection does. On by default; off only for comparisons.
+    pub shake: bool,
+}
+
+/// How the sticks of an island are solved (the crate README, "Solvers", has the measurements).
+///
+/// ```
+/// use bevy_verlet_physics::prelude::*;
+/// # use bevy::prelude::default;
+/// // Force Gauss–Seidel sweeps everywhere (the solver before lines existed).
+/// let config = VerletConfig { method: SolveMethod::Sweep, ..default() };
+/// assert_ne!(config.method, SolveMethod::default());
+/// ```
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Default, Debug, Clone)]
+pub enum SolveMethod {
+    /// Per island: ropes, chains and trees (no loop, no angle constraint) are solved by lines —
+    /// exactly, whatever their length and mass ratio, and keeping their energy; cloth, ragdolls
+    /// with posture links and braced structures by Gauss–Seidel sweeps.
+    #[default]
+    Auto,
+    /// Gauss–Seidel sweeps over single sticks for every island.
+    Sweep,
+    /// Every island's sticks covered by lines (paths), each solved directly; lines that share
+    /// particles are solved one after the other.
+    Lines,
+}
+
+impl SolveMethod {
+    /// The solver core's equivalent.
+    pub(crate) fn core(self) -> crate::solver::Method {
+        use crate::solver::Method;
+        match self {
+            Self::Auto => Method::Auto,
+            Self::Sweep => Method::Sweep,
+            Self::Lines => Method::Lines,
+        }
+    }
 }
 
 /// When an island — particles connected by sticks — falls asleep: it is then neither integrated
@@ -80,6 +122,8 @@ impl Default for VerletConfig {
             pending_steps: 0,
             sleeping: Sleeping::Auto,
             parallel: true,
+            method: SolveMethod::Auto,
+            shake: true,
         }
     }
 }

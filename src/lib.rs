@@ -55,7 +55,7 @@ pub use builders::{
 #[cfg(feature = "gizmos")]
 pub use cloth_mesh::ClothMesh;
 pub use collider::{ColliderShape, VerletCollider};
-pub use config::{Gravity, Sleeping, VerletConfig, VerletStats};
+pub use config::{Gravity, Sleeping, SolveMethod, VerletConfig, VerletStats};
 #[cfg(feature = "gizmos")]
 pub use debug_render::{DebugColor, VerletDebugConfig, VerletDebugPlugin, VerletGizmos};
 pub use executor::TaskPoolExecutor;
@@ -78,9 +78,9 @@ pub mod prelude {
     };
     pub use crate::{
         AngleConstraint, ColliderShape, FollowParticle, FollowStick, Gravity, IslandOverride,
-        Particle, Pin, PinTarget, Sleeping, Stick, StickKind, StickTorn, Stiffness, Tethered,
-        VerletCollider, VerletConfig, VerletPlugin, VerletState, VerletStats, VerletSubstepSystems,
-        VerletSubsteps, VerletSystems,
+        Particle, Pin, PinTarget, Sleeping, SolveMethod, Stick, StickKind, StickTorn, Stiffness,
+        Tethered, VerletCollider, VerletConfig, VerletPlugin, VerletState, VerletStats,
+        VerletSubstepSystems, VerletSubsteps, VerletSystems,
     };
     #[cfg(feature = "gizmos")]
     pub use crate::{

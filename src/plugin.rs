@@ -89,6 +89,7 @@ impl Plugin for VerletPlugin {
             .register_type::<Tethered>()
             .register_type::<crate::IslandOverride>()
             .register_type::<crate::Sleeping>()
+            .register_type::<crate::SolveMethod>()
             .register_type::<Stick>()
             .register_type::<Stiffness>()
             .register_type::<AngleConstraint>()

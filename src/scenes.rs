@@ -171,20 +171,17 @@ pub fn shapes(commands: &mut Commands) -> Vec<Composite> {
         tire(commands, Vec3::new(-30.0, 250.0, 0.0), 70.0, 3, 1.0, 1.0),
     ];
     // A slack bridge of line segments pinned at both ends: 20 rigid links with 10 % slack
-    // (verlet-js uses a very soft stiffness, 0.02, for the same sag).
-    let bridge = RopeBuilder::new(
-        Vec3::new(-560.0, -120.0, 0.0),
-        Vec3::new(-80.0, -120.0, 0.0),
-        20,
-    )
+    // (verlet-js uses a very soft stiffness, 0.02, for the same sag). It is spawned already
+    // slack, as a V of two 10-link arms, so no link starts compressed.
+    let (left, span, link) = (Vec2::new(-560.0, -120.0), 480.0_f32, 480.0 / 20.0 * 1.1);
+    let depth = ((10.0 * link) * (10.0 * link) - (span / 2.0) * (span / 2.0)).sqrt();
+    let bridge = RopeBuilder::along((0..=20).map(|i| {
+        let arm = 1.0 - (i as f32 - 10.0).abs() / 10.0; // 0 at the pins, 1 in the middle
+        (left + Vec2::new(span * i as f32 / 20.0, -depth * arm)).extend(0.0)
+    }))
     .pin_start()
     .pin_end()
     .spawn(commands);
-    let link = 480.0 / 20.0 * 1.1;
-    for (i, &stick) in bridge.sticks.iter().enumerate() {
-        let slack = Stick::new(bridge.particles[i], bridge.particles[i + 1]).with_rest_length(link);
-        commands.entity(stick).insert(slack);
-    }
     shapes.push(bridge);
     shapes.push(tree(
         commands,

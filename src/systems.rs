@@ -136,6 +136,7 @@ fn step_config(config: &VerletConfig, gravity: &Gravity, time: &Time) -> StepCon
                 time: time as f64,
             }),
         },
+        shake: config.shake,
     }
 }
 
@@ -183,6 +184,10 @@ pub(crate) fn prepare(
                 break;
             }
         }
+    }
+    if state.solver.method != config.method.core() {
+        state.solver.method = config.method.core();
+        state.dirty = true;
     }
     if state.dirty {
         let inputs = RebuildInputs {

@@ -2,7 +2,7 @@
 //! core (`Solver::organize`, `Solver::step_with`).
 
 use bevy_verlet_physics::solver::{
-    IslandSettings, ScopedThreads, Serial, Sleep, Solver, StepConfig, StickKind,
+    IslandSettings, Method, ScopedThreads, Serial, Sleep, Solver, StepConfig, StickKind,
 };
 use glam::DVec3;
 use std::collections::HashSet;
@@ -89,6 +89,8 @@ fn bits(positions: &[DVec3]) -> Vec<[u64; 3]> {
 #[test]
 fn organize_finds_islands_and_keeps_small_islands_bitwise() {
     let mut plain = Solver::default();
+    // (Sweeps: an unorganized solver sweeps, and this compares only the bookkeeping.)
+    plain.method = Method::Sweep;
     interleaved_ropes(&mut plain, 5, 30);
     plain.add_particle(DVec3::new(0.0, 5.0, 0.0), 1.0); // a free particle: its own island
     let mut organized = plain.clone();
@@ -249,6 +251,8 @@ fn taut_two_corner_cloth_stays_bounded_in_colour_order() {
 #[test]
 fn island_override_matches_a_solo_run_with_those_settings() {
     let mut both = Solver::default();
+    // (Sweeps: the solo runs are unorganized, and unorganized solvers sweep.)
+    both.method = Method::Sweep;
     interleaved_ropes(&mut both, 2, 20);
     let light = IslandSettings {
         substeps: 2,

@@ -168,15 +168,20 @@ fn shapes_bridge_and_tree_hold_their_pins() {
     let bridge_ends = ends(&app);
     let tree_base = positions(&app, &tree.particles[..2]);
     let tree_tip_start = position(&app, *tree.particles.last().unwrap());
-    step(&mut app, 64 * 4);
+    step(&mut app, 64 * 3);
+    // The bridge sags (10 % slack) below its pins. Solved by lines with SHAKE and no damping it
+    // keeps swinging about its sag (energy is kept), so its middle is averaged over a second.
+    let mut middle = Vec3::ZERO;
+    for _ in 0..64 {
+        step(&mut app, 1);
+        middle += position(&app, bridge.particles[bridge.particles.len() / 2]) / 64.0;
+    }
     assert!(all_finite(&mut app));
     assert_eq!(ends(&app), bridge_ends);
     assert_eq!(positions(&app, &tree.particles[..2]), tree_base);
-    // The bridge sags (10 % slack) below its pins.
-    let middle = position(&app, bridge.particles[bridge.particles.len() / 2]);
     assert!(
         middle.y < bridge_ends.0.y - 40.0,
-        "bridge middle at {middle}"
+        "bridge middle at {middle} on average"
     );
     // The tree stands: angle constraints keep its tip within a branch length of where it was.
     let tip = position(&app, *tree.particles.last().unwrap());

@@ -25,6 +25,8 @@ pub struct RopeBuilder {
     pin_start: bool,
     pin_end: bool,
     material: Material,
+    /// The particles' positions when built with [`RopeBuilder::along`].
+    points: Option<Vec<Vec3>>,
 }
 
 impl RopeBuilder {
@@ -37,7 +39,35 @@ impl RopeBuilder {
             pin_start: false,
             pin_end: false,
             material: Material::default(),
+            points: None,
         }
+    }
+
+    /// A rope through `points`, one stick between each pair of consecutive points, each as long
+    /// as they are apart: a rope that starts sagging, coiled or laid along a path. A rope whose
+    /// sticks are longer than its ends are apart (a slack bridge) should be spawned like this,
+    /// already slack, rather than straight and then lengthened: a straight chain whose links are
+    /// too long is compressed and has to buckle, which launches it. Fewer than two points give
+    /// one stick of length 0 at the first point (or the origin).
+    ///
+    /// ```
+    /// use bevy::prelude::*;
+    /// use bevy_verlet_physics::prelude::*;
+    /// let mut world = World::new();
+    /// // A V-shaped slack bridge: two arms of 5 links.
+    /// let points = (0..=10).map(|i| Vec3::new(i as f32, -(5.0 - (i as f32 - 5.0).abs()), 0.0));
+    /// let bridge = RopeBuilder::along(points).pin_start().pin_end().spawn(&mut world.commands());
+    /// assert_eq!(bridge.sticks.len(), 10);
+    /// ```
+    pub fn along(points: impl IntoIterator<Item = Vec3>) -> Self {
+        let mut points: Vec<Vec3> = points.into_iter().collect();
+        let first = points.first().copied().unwrap_or(Vec3::ZERO);
+        while points.len() < 2 {
+            points.push(first);
+        }
+        let mut rope = Self::new(first, *points.last().unwrap_or(&first), points.len() - 1);
+        rope.points = Some(points);
+        rope
     }
 
     /// Pins the first particle where it is.
@@ -57,9 +87,12 @@ impl RopeBuilder {
     /// Spawns it.
     pub fn spawn(&self, commands: &mut Commands) -> Composite {
         let n = self.links;
-        let points: Vec<Vec3> = (0..=n)
-            .map(|i| self.start.lerp(self.end, i as f32 / n as f32))
-            .collect();
+        let points: Vec<Vec3> = match &self.points {
+            Some(points) => points.clone(),
+            None => (0..=n)
+                .map(|i| self.start.lerp(self.end, i as f32 / n as f32))
+                .collect(),
+        };
         let pinned: Vec<bool> = (0..=n)
             .map(|i| (i == 0 && self.pin_start) || (i == n && self.pin_end))
             .collect();

@@ -9,6 +9,7 @@
 //! remap their own indices; the Bevy layer does this on every topology change.
 
 use super::colouring::{Batch, MAX_COLOURS, colour_sticks};
+use super::lines::{LineSet, Method, cover, is_chain_or_tree};
 use super::{Solver, StickKind};
 use std::ops::Range;
 
@@ -81,6 +82,13 @@ pub struct Island {
     pub tethers: Range<u32>,
     /// Overrides of the step's substeps and iterations.
     pub settings: Option<IslandSettings>,
+    /// How its sticks are solved (resolved by [`Solver::organize`]: never [`Method::Auto`]
+    /// there; an island left at `Auto` is swept).
+    pub method: Method,
+    /// Its groups of lines (ranges into [`LineSet::groups`]) when solved by lines.
+    pub line_groups: Range<u32>,
+    /// Its sticks that no line holds (range into [`LineSet::loose`]), swept after the lines.
+    pub loose: Range<u32>,
     /// `true` while the island sleeps (it is neither integrated nor solved).
     pub asleep: bool,
     /// How long every particle has been below the sleep speed, in seconds.
@@ -117,6 +125,8 @@ pub struct Islands {
     pub list: Vec<Island>,
     /// Every colour batch, island after island.
     pub batches: Vec<Batch>,
+    /// The lines of the islands solved by [`Method::Lines`].
+    pub lines: LineSet,
     /// Sizes `[particles, sticks, angles, pins]` the islands were built for; on a mismatch the
     /// solver treats everything as one island in array order.
     pub(crate) signature: [usize; 4],
@@ -357,6 +367,7 @@ impl Solver {
         islands.signature = signature;
         self.rebuild_tethers();
         self.resolve_island_settings();
+        self.build_lines();
         Reorder {
             particles: particle_from,
             sticks: order,
@@ -456,9 +467,13 @@ impl Solver {
             pins: 0..self.pins.len() as u32,
             tethers: 0..self.tethers.len() as u32,
             settings: None,
+            method: Method::Sweep,
+            line_groups: 0..0,
+            loose: 0..0,
             asleep,
             calm_time,
         });
+        islands.lines.clear();
         islands.signature = signature;
         self.resolve_island_settings();
     }
@@ -471,6 +486,60 @@ impl Solver {
             let end = particle.partition_point(|&p| p < island.particles.end);
             island.tethers = start as u32..end as u32;
         }
+    }
+
+    /// Picks every island's [`Method`] and covers the sticks of the islands solved by lines.
+    fn build_lines(&mut self) {
+        let n = self.particles.len();
+        self.line_builder.incidence.build(&self.sticks, n);
+        let islands = &mut self.islands;
+        islands.lines.clear();
+        for island in &mut islands.list {
+            island.method = Method::Auto; // (no override yet)
+            island.line_groups = 0..0;
+            island.loose = 0..0;
+        }
+        for &(particle, method) in &self.island_methods {
+            if let Some(k) = islands.of_particle(particle) {
+                islands.list[k].method = method;
+            }
+        }
+        let builder = &mut self.line_builder;
+        for island in &mut islands.list {
+            let particles = island.particles.clone();
+            let sticks = (island.sticks.end - island.sticks.start) as usize;
+            let method = match island.method {
+                Method::Auto => self.method,
+                forced => forced,
+            };
+            let max_degree = particles
+                .clone()
+                .map(|p| builder.incidence.degree(p))
+                .max()
+                .unwrap_or(0);
+            let chain =
+                is_chain_or_tree(sticks, particles.len(), max_degree) && island.angles.is_empty();
+            island.method = match method {
+                Method::Auto if chain => Method::Lines,
+                Method::Lines if sticks > 0 => Method::Lines,
+                _ => Method::Sweep,
+            };
+            if island.method != Method::Lines {
+                continue;
+            }
+            let covered = cover(
+                &mut islands.lines,
+                &mut builder.cover,
+                &self.particles,
+                &self.sticks,
+                island.sticks.clone(),
+                particles,
+                &builder.incidence,
+            );
+            island.line_groups = covered.groups;
+            island.loose = covered.loose;
+        }
+        self.line_scratch.resize(islands.lines.sticks.len());
     }
 
     /// Sets [`Island::settings`] from [`Solver::island_settings`] (the larger counts win).

@@ -57,8 +57,10 @@
 mod angles;
 mod colliders;
 pub mod colouring;
+pub mod direct;
 mod integrate;
 pub mod islands;
+pub mod lines;
 pub mod parallel;
 mod particles;
 mod pins;
@@ -73,6 +75,7 @@ pub use colliders::{Collider, Shape, constrain};
 pub use colouring::Batch;
 pub use integrate::{consistent_previous, integrate};
 pub use islands::{Island, IslandSettings, Islands, Reorder, Sleep};
+pub use lines::{Line, LineSet, Method};
 pub use parallel::{Executor, ScopedThreads, Serial};
 pub use particles::Particles;
 pub use pins::Pins;
@@ -104,6 +107,10 @@ pub struct StepConfig {
     pub damping: f64,
     /// When islands fall asleep (`None`: never).
     pub sleep: Option<Sleep>,
+    /// Islands solved by lines correct along each stick's direction at the start of the
+    /// substep (SHAKE, energy-conserving) instead of its current direction (the XPBD
+    /// projection, which damps). See [`direct`].
+    pub shake: bool,
 }
 
 impl Default for StepConfig {
@@ -115,6 +122,7 @@ impl Default for StepConfig {
             gravity: DVec3::new(0.0, -9.81, 0.0),
             damping: 0.0,
             sleep: None,
+            shake: true,
         }
     }
 }
@@ -137,6 +145,7 @@ impl StepConfig {
             damping_factor: (-self.damping * h).exp(),
             // Multipliers matter only when a substep iterates more than once.
             accumulate: self.iterations > 1,
+            shake: self.shake,
         }
     }
 }
@@ -158,6 +167,8 @@ pub struct Substep {
     pub damping_factor: f64,
     /// Whether XPBD multipliers accumulate across iterations.
     pub accumulate: bool,
+    /// Lines correct along start-of-substep directions (see [`StepConfig::shake`]).
+    pub shake: bool,
 }
 
 /// Everything the solver simulates, in dense arrays.
@@ -188,6 +199,18 @@ pub struct Solver {
     /// Per-island overrides: the island containing the particle uses these settings (applied
     /// by [`Solver::organize`]).
     pub island_settings: Vec<(u32, IslandSettings)>,
+    /// How islands are solved unless overridden (applied by [`Solver::organize`]): by default
+    /// [`Method::Auto`] — chains and trees by lines, everything else by sweeps.
+    pub method: Method,
+    /// Per-island method overrides: the island containing the particle is solved this way
+    /// (applied by [`Solver::organize`]).
+    pub island_methods: Vec<(u32, Method)>,
+    /// Scratch of [`Solver::organize`]'s line cover.
+    pub(crate) line_builder: lines::LineBuilder,
+    /// Scratch of the line solves.
+    pub(crate) line_scratch: direct::LineScratch,
+    /// Newton passes of every line solve so far (see [`Solver::line_passes`]).
+    pub(crate) line_passes: direct::PassCounter,
     /// Particles whose islands must wake before the next step (see [`Solver::wake`]).
     pub(crate) wake_requests: Vec<u32>,
     /// The step in progress (set by [`Solver::begin_step`]).
@@ -211,9 +234,11 @@ impl Solver {
         self.colliders.clear();
         self.torn.clear();
         self.island_settings.clear();
+        self.island_methods.clear();
         self.wake_requests.clear();
         self.islands.list.clear();
         self.islands.batches.clear();
+        self.islands.lines.clear();
     }
 
     /// Adds a particle at rest at `position` and returns its index. (For a particle that must
@@ -239,6 +264,19 @@ impl Solver {
         self.tethers
             .rebuild(&self.particles, &self.sticks, &self.pins, &self.tethered);
         self.assign_tether_ranges();
+    }
+
+    /// How many Newton passes the line solves have taken since the solver was made (a cost
+    /// figure: a converged line takes none, a hanging chain about one per substep).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Solver;
+    /// assert_eq!(Solver::default().line_passes(), 0);
+    /// ```
+    pub fn line_passes(&self) -> u64 {
+        self.line_passes
+            .0
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// One relaxation sweep over every constraint, whole arrays in order, ignoring islands:

@@ -14,7 +14,9 @@
 
 use super::angles::relax_angle_range;
 use super::colliders::constrain_range;
+use super::direct::{LineRef, LineScratch, LineSolve, LineViews};
 use super::integrate::integrate_range;
+use super::lines::Method;
 use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
     PARALLEL_MIN_WORK_PER_JOB, Serial, job_count, part,
@@ -81,12 +83,13 @@ impl GlobalSubstep {
     }
 }
 
-/// Positions, previous positions and multipliers, shareable between jobs.
+/// Positions, previous positions, multipliers and line scratch, shareable between jobs.
 struct Views<'a> {
     position: Shared<'a, DVec3>,
     previous: Shared<'a, DVec3>,
     stick_lambda: Shared<'a, f64>,
     angle_lambda: Shared<'a, f64>,
+    lines: LineViews<'a>,
 }
 
 /// The arrays the views borrow, moved out of the solver for a phase (no allocation).
@@ -95,6 +98,7 @@ struct Taken {
     previous: Vec<DVec3>,
     stick_lambda: Vec<f64>,
     angle_lambda: Vec<f64>,
+    lines: LineScratch,
 }
 
 impl Solver {
@@ -232,6 +236,7 @@ impl Solver {
         // Large coloured islands are solved on every thread; the rest in groups.
         let big = |island: &Island, substep: &Substep, batches: &[super::Batch]| {
             threads > 1
+                && island.method != Method::Lines
                 && len(&island.sticks) * substep.iterations as usize
                     >= PARALLEL_MIN_STICK_ITERATIONS
                 && batches[range(&island.batches)]
@@ -374,11 +379,51 @@ impl Solver {
         island: &Island,
         substep: &Substep,
     ) {
-        for _ in 0..substep.iterations {
-            for batch in &islands.batches[range(&island.batches)] {
-                self.relax_sticks_of(views, substep, batch);
+        for round in 0..substep.iterations {
+            if island.method == Method::Lines {
+                self.solve_lines_of(views, islands, island, substep, round == 0);
+            } else {
+                for batch in &islands.batches[range(&island.batches)] {
+                    self.relax_sticks_of(views, substep, batch);
+                }
             }
             self.relax_rest_of(views, island, substep);
+        }
+    }
+
+    /// One round of an island's lines (group after group: block Gauss–Seidel over lines), then
+    /// its loose sticks.
+    fn solve_lines_of(
+        &self,
+        views: &Views,
+        islands: &super::Islands,
+        island: &Island,
+        substep: &Substep,
+        first_round: bool,
+    ) {
+        let set = &islands.lines;
+        let solve = LineSolve {
+            position: &views.position,
+            previous: &views.previous,
+            mirror: None,
+            lambda: &views.stick_lambda,
+            inverse_mass: &self.particles.inverse_mass,
+            sticks: &self.sticks,
+            scratch: &views.lines,
+            inv_h2: 1.0 / (substep.h * substep.h),
+            shake: substep.shake,
+            first_round,
+        };
+        let mut passes = 0;
+        for group in &set.groups[range(&island.line_groups)] {
+            for line in &set.lines[range(group)] {
+                passes += solve.solve(&LineRef::of(line, set)) as u64;
+            }
+        }
+        self.line_passes.0.fetch_add(passes, Ordering::Relaxed);
+        for &stick in &set.loose[range(&island.loose)] {
+            let stick = stick as usize;
+            self.relax_stick_part(views, substep, stick..stick + 1, false);
         }
     }
 
@@ -497,6 +542,7 @@ impl Solver {
                 previous: std::mem::take(&mut self.particles.previous),
                 stick_lambda: std::mem::take(&mut self.sticks.lambda),
                 angle_lambda: std::mem::take(&mut self.angles.lambda),
+                lines: std::mem::take(&mut self.line_scratch),
             },
             std::mem::take(&mut self.islands),
         )
@@ -507,6 +553,7 @@ impl Solver {
         self.particles.previous = taken.previous;
         self.sticks.lambda = taken.stick_lambda;
         self.angles.lambda = taken.angle_lambda;
+        self.line_scratch = taken.lines;
         self.islands = islands;
     }
 }
@@ -517,6 +564,7 @@ fn views(taken: &mut Taken) -> Views<'_> {
         previous: Shared::new(&mut taken.previous),
         stick_lambda: Shared::new(&mut taken.stick_lambda),
         angle_lambda: Shared::new(&mut taken.angle_lambda),
+        lines: LineViews::new(&mut taken.lines),
     }
 }
 

@@ -146,7 +146,7 @@ const MIN_LENGTH: f64 = 1e-12;
 
 /// The direction along which stick `i` pushes coincident ends apart: the golden angle
 /// (≈ 137.5°) times `i` in the XY plane (`+X` for stick 0).
-fn coincident_direction(i: usize) -> DVec3 {
+pub(crate) fn coincident_direction(i: usize) -> DVec3 {
     const GOLDEN_ANGLE: f64 = 2.399_963_229_728_653;
     let (sin, cos) = (GOLDEN_ANGLE * i as f64).sin_cos();
     DVec3::new(cos, sin, 0.0)

@@ -126,6 +126,7 @@ impl Setting {
             gravity,
             damping,
             sleep: None,
+            shake: true,
         }
     }
 }
