@@ -108,5 +108,6 @@ pub fn on_front(result: &SceneResult, setting: Setting) -> bool {
     pareto(&records).iter().any(|&i| {
         records[i].setting.substeps == setting.substeps
             && records[i].setting.iterations == setting.iterations
+            && records[i].setting.method == setting.method
     })
 }

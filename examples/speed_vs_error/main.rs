@@ -19,11 +19,13 @@
 //! 4. cloth 50 × 50 pinned along the top: max and mean strain after settling;
 //! 5. springs from compliance (2 Hz, 10 Hz, a seed material): frequency against `√(k/m)`;
 //! 6. free fall and projectile against `x₀ + v₀t + ½gt²` (and an `f32` loop for contrast);
-//! 7. double pendulum: energy lost over 60 s (and left after 10 s).
+//! 7. double pendulum: energy lost over 60 s (and left after 10 s);
+//! 8. chains released from horizontal (the heavy tip's, 200 equal links): max link strain.
 //!
 //! The settings (module [`sweep`]): the seeds' style, 1 substep × N = 1…64 iterations (rigid sticks
 //! are the seeds' stiffness 1.0), S = 1…64 substeps × 1, 2 and 4 iterations, tethers on and off,
-//! XPBD compliance against plain per-pass stiffness. Cost is measured three ways: wall time per
+//! XPBD compliance against plain per-pass stiffness, and S = 1…8 substeps solved by lines
+//! (direct solve with SHAKE). Cost is measured three ways: wall time per
 //! simulated second (median of repeated runs in this process, interleaved across settings, so
 //! only comparable within one report), the solver thread's CPU time likewise (Linux; it does not
 //! grow when other processes load the machine), and constraint projections per simulated second
@@ -35,6 +37,7 @@
 
 mod analysis;
 mod extras;
+mod lines;
 mod plot;
 mod precision;
 mod reading;
@@ -50,6 +53,7 @@ use sim::heavy_tip::HeavyTip;
 use sim::loaded::Loaded;
 use sim::pendulum::Pendulum;
 use sim::spring::{Spring, Stiff};
+use sim::swinging::Swinging;
 use sim::{Material, Units};
 use std::time::Instant;
 use sweep::{Plan, SceneResult, sweep};
@@ -88,6 +92,8 @@ pub struct Results {
     pub catenary: SceneResult,
     /// Heavy tip.
     pub heavy_tip: SceneResult,
+    /// Chains released from horizontal: the heavy tip's, and 200 equal links.
+    pub swinging: [SceneResult; 2],
     /// Soft loaded chains, one per material.
     pub loaded: Vec<SceneResult>,
     /// Cloth.
@@ -136,6 +142,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         pendulum_px: [5.0, 120.0].map(|a| sweep(&pendulum(a, Units::Pixels), &plan.lean(), &plan)),
         catenary: sweep(&Catenary::default(), &plan.rigid_and_tethers(), &plan),
         heavy_tip: sweep(&HeavyTip::default(), &plan.rigid_and_tethers(), &plan),
+        swinging: [Swinging::heavy_tip(), Swinging::two_hundred()]
+            .map(|scene| sweep(&scene, &plan.rigid_and_tethers(), &plan)),
         loaded: [TUTS_TORSO, VERLET_JS_CLOTH]
             .iter()
             .map(|&m| sweep(&Loaded::new(m), &plan.laws(), &plan))

@@ -24,7 +24,7 @@ struct Series {
 }
 
 /// Every series any panel may show (a panel draws those it has records for).
-const SERIES: [Series; 9] = [
+const SERIES: [Series; 10] = [
     Series {
         label: "1xN (seed style)",
         family: Family::Iterations,
@@ -52,6 +52,13 @@ const SERIES: [Series; 9] = [
         tethers: false,
         law: Law::Xpbd,
         color: RGBColor(150, 40, 200),
+    },
+    Series {
+        label: "Sx1 lines",
+        family: Family::Lines,
+        tethers: false,
+        law: Law::Xpbd,
+        color: RGBColor(0, 0, 0),
     },
     Series {
         label: "1xN + tethers",
@@ -128,6 +135,16 @@ pub fn draw(results: &Results, path: &str) -> Result<(), Box<dyn Error>> {
             y: "stretch",
         },
         Panel {
+            title: "(8) Heavy tip swinging from horizontal".into(),
+            result: &results.swinging[0],
+            y: "max link strain",
+        },
+        Panel {
+            title: "(8) 200 links swinging from horizontal".into(),
+            result: &results.swinging[1],
+            y: "max link strain",
+        },
+        Panel {
             title: "(4) Cloth 50x50".into(),
             result: &results.cloth,
             y: "max strain",
@@ -148,11 +165,11 @@ pub fn draw(results: &Results, path: &str) -> Result<(), Box<dyn Error>> {
             y: "|stretch / intended - 1|",
         },
     ];
-    let root = BitMapBackend::new(path, (2100, 1900)).into_drawing_area();
+    let root = BitMapBackend::new(path, (2100, 2480)).into_drawing_area();
     root.fill(&WHITE)?;
     let (header, body) = root.split_vertically(120);
     draw_header(&header)?;
-    for (area, panel) in body.split_evenly((3, 3)).iter().zip(&panels) {
+    for (area, panel) in body.split_evenly((4, 3)).iter().zip(&panels) {
         draw_panel(area, panel)?;
     }
     root.present()?;

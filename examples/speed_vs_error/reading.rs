@@ -7,6 +7,7 @@ use crate::analysis::{error, exponents, fixed, on_front, pareto, record, shown, 
 use crate::report::{format_value, significant};
 use crate::sim::{Law, Setting, TIMESTEP};
 use crate::sweep::{Record, SceneResult};
+use bevy_verlet_physics::solver::Method;
 use std::fmt::Write;
 
 /// Cost budget of the game-default rule: the 50 × 50 cloth (4900 sticks) may take this many
@@ -239,7 +240,11 @@ fn plot_reading(results: &Results, budgets: &[u32]) -> String {
         let records: Vec<&Record> = r
             .records
             .iter()
-            .filter(|x| !x.setting.tethers && x.setting.law == Law::Xpbd)
+            .filter(|x| {
+                !x.setting.tethers
+                    && x.setting.law == Law::Xpbd
+                    && x.setting.method == Method::Sweep
+            })
             .collect();
         let records: Vec<&Record> = records
             .into_iter()

@@ -3,7 +3,7 @@
 use crate::Results;
 use crate::sim::Unit;
 use crate::sweep::{Plan, SceneResult, same_run};
-use crate::{extras, reading};
+use crate::{extras, lines, reading};
 use std::fmt::Write;
 
 /// Formats a metric for a table (`n/a` for `NaN`).
@@ -95,6 +95,7 @@ pub fn document(results: &Results, plan: &Plan, load: (String, String)) -> Strin
         plan.repeats()
     );
     out.push_str(&reading::summary(results, plan.budgets()));
+    out.push_str(&lines::section(results));
     out.push_str(&extras::extras(results));
     out.push_str(METHOD);
     out.push_str("\n## All results\n");
@@ -103,6 +104,7 @@ pub fn document(results: &Results, plan: &Plan, load: (String, String)) -> Strin
         .iter()
         .chain(&results.pendulum_px)
         .chain([&results.catenary, &results.heavy_tip])
+        .chain(&results.swinging)
         .chain(&results.loaded)
         .chain([&results.cloth])
         .chain(&results.springs)
@@ -133,8 +135,10 @@ Rigid sticks (compliance 0) are what the seeds' stiffness 1.0 maps to, so the ri
 | 5 | 1 kg on a stick of compliance α to a pin, 1 cm off rest, no gravity (2 Hz, 10 Hz, and a seed material) | `ω = √(1/(α·m))`; implicit Euler `atan(ωh)/(ωh)` and `(1 + ω²h²)^(−1/(2h))` | frequency error (fit of the two-step recurrence) |
 | 6 | free fall and projectile, 1 s | `x₀ + v₀t + ½gt²` | position error / distance |
 | 7 | double pendulum, 2 × 0.5 m, unit masses, released horizontal, 60 s | energy is conserved | energy lost in 60 s, `1 − (E − E_min)/(E₀ − E_min)` (above 100 % when the arms end stretched, below `E_min`) |
+| 8 | chains released from horizontal, no damping, 5 s: 100 links, 1 m, tip 1000× a link; 200 equal links, 2 m | zero stretch | largest link strain at any step |
 
-Settings: 1 × N (the seeds' style), S × 1, S × 2 and S × 4 for N, S in the swept budgets; with
+Settings: 1 × N (the seeds' style), S × 1, S × 2 and S × 4 for N, S in the swept budgets, and
+S × 1 solved by lines (`Method::Lines`, SHAKE on) for S up to 8; with
 tethers (every free particle tethered to its nearest pin, `Solver::rebuild_tethers`) for the
 chains and the cloth; XPBD (`Stiffness::Seed` conversion) against plain per-projection stiffness
 for the soft materials (plain PBD is emulated by setting `α = w·h²·(1 − k)/k` and never

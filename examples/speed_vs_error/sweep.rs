@@ -42,7 +42,18 @@ impl Plan {
         for &m in self.iterations() {
             settings.extend(self.budgets().iter().map(|&s| Setting::substeps(s, m)));
         }
+        settings.extend(self.lines());
         settings
+    }
+
+    /// S × 1 solved by lines (S = 1 … 8: lines are exact per substep, more substeps only refine
+    /// the time integration).
+    pub fn lines(&self) -> Vec<Setting> {
+        self.budgets()
+            .iter()
+            .filter(|&&s| s <= 8)
+            .map(|&s| Setting::lines(s))
+            .collect()
     }
 
     /// [`Plan::rigid`] plus 1 × N and S × 1 with tethers.
@@ -66,6 +77,7 @@ impl Plan {
     pub fn lean(&self) -> Vec<Setting> {
         let mut settings: Vec<Setting> = self.budgets().iter().map(|&n| Setting::seed(n)).collect();
         settings.extend(self.budgets().iter().map(|&s| Setting::substeps(s, 1)));
+        settings.extend(self.lines());
         settings
     }
 
@@ -268,5 +280,6 @@ pub fn sweep(scene: &dyn Scene, settings: &[Setting], plan: &Plan) -> SceneResul
 
 /// Whether two settings run the same simulation (they may belong to different families).
 pub fn same_run(a: &Setting, b: &Setting) -> bool {
-    (a.substeps, a.iterations, a.tethers, a.law) == (b.substeps, b.iterations, b.tethers, b.law)
+    (a.substeps, a.iterations, a.tethers, a.law, a.method)
+        == (b.substeps, b.iterations, b.tethers, b.law, b.method)
 }

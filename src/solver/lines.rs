@@ -3,9 +3,9 @@
 //! A chain of sticks — a rope, a pendulum, one row of a cloth — is a tridiagonal system that a
 //! direct solve satisfies exactly in one pass, whatever its length and mass ratio. An island is
 //! covered by such paths the way strand solvers treat hair (Han & Harada 2013, TressFX): at every
-//! particle, pairs of its sticks that continue each other in a straight line are joined (the most
-//! opposite pair first, while they are within 60° of straight), and every chain of joined sticks
-//! becomes a [`Line`]. A rope is one line; a grid's rows and columns become lines (and its shear
+//! particle, pairs of its sticks that continue each other are joined — both sticks of a particle
+//! that has two, and at a particle with more the most opposite pairs first, while they are within
+//! 60° of straight — and every chain of joined sticks becomes a [`Line`]. A rope is one line; a grid's rows and columns become lines (and its shear
 //! diagonals, diagonal lines); a tree's branches become lines that meet at forks. A line that
 //! would close on itself (a ring) is cut open: its last stick goes into the island's *loose*
 //! sticks, solved by a Gauss–Seidel sweep after the lines.
@@ -131,7 +131,8 @@ pub(crate) struct CoverScratch {
 
 /// Covers the sticks `island_sticks` (indices into `sticks`, none torn) of an island whose
 /// particles are `island_particles` with lines, appending them to `set`.
-/// `incidence(p)` lists the sticks at particle `p` (see [`Incidence`]).
+/// `incidence(p)` lists the sticks at particle `p` (see [`Incidence`]). In a chain or tree a
+/// line follows every bend; in a mesh only straight continuations.
 pub(crate) fn cover(
     set: &mut LineSet,
     scratch: &mut CoverScratch,
@@ -149,8 +150,11 @@ pub(crate) fn cover(
         scratch.next[i as usize] = [u32::MAX; 2];
         scratch.used[i as usize] = false;
     }
+    let (count, particles_in) = (island_sticks.len(), island_particles.len());
+    let max_degree = island_particles.clone().map(|p| incidence.degree(p)).max();
+    let bend = is_chain_or_tree(count, particles_in, max_degree.unwrap_or(0));
     for p in island_particles.clone() {
-        pair_straight_sticks(scratch, particles, sticks, incidence, p);
+        pair_straight_sticks(scratch, (particles, sticks), incidence, p, bend);
     }
     let loose_start = set.loose.len() as u32;
     scratch.pending.clear();
@@ -175,10 +179,10 @@ pub(crate) fn cover(
 /// Joins, at particle `p`, the pairs of its sticks that continue each other most straight.
 fn pair_straight_sticks(
     scratch: &mut CoverScratch,
-    particles: &Particles,
-    sticks: &Sticks,
+    (particles, sticks): (&Particles, &Sticks),
     incidence: &Incidence,
     p: u32,
+    bend: bool,
 ) {
     let at = particles.position[p as usize];
     scratch.incident.clear();
@@ -188,8 +192,16 @@ fn pair_straight_sticks(
         let direction = (particles.position[other as usize] - at).normalize_or_zero();
         scratch.incident.push((i, direction));
     }
+    // In a chain or tree, two sticks at a particle always continue each other (a chain stays
+    // one line however sharply it bends); elsewhere (a mesh's corner) and among more sticks,
+    // only pairs close to straight do.
+    let threshold = if bend && scratch.incident.len() == 2 {
+        f64::INFINITY
+    } else {
+        STRAIGHT_ENOUGH
+    };
     loop {
-        let mut best = (STRAIGHT_ENOUGH, usize::MAX, usize::MAX);
+        let mut best = (threshold, usize::MAX, usize::MAX);
         let incident = &scratch.incident;
         for (j, &(si, di)) in incident.iter().enumerate() {
             for (k, &(sk, dk)) in incident.iter().enumerate().skip(j + 1) {

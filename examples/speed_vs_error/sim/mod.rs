@@ -17,9 +17,10 @@ pub mod measure;
 pub mod pendulum;
 pub mod reference;
 pub mod spring;
+pub mod swinging;
 
 use bevy_verlet_physics::Stiffness;
-use bevy_verlet_physics::solver::{Serial, Solver, StepConfig, StickKind};
+use bevy_verlet_physics::solver::{Method, Serial, Solver, StepConfig, StickKind};
 use glam::DVec3;
 
 /// Bevy's default fixed step (64 Hz), used by every scene.
@@ -32,6 +33,9 @@ pub enum Family {
     Iterations,
     /// `S` substeps per fixed step, each with this many iterations.
     Substeps(u32),
+    /// `S` substeps per fixed step, sticks solved by lines (direct solve, SHAKE): the solver's
+    /// [`Method::Lines`] for every island.
+    Lines,
 }
 
 /// How compliant (soft) sticks are solved. Rigid sticks (compliance 0) are the same under both.
@@ -57,6 +61,8 @@ pub struct Setting {
     pub tethers: bool,
     /// Law of compliant sticks.
     pub law: Law,
+    /// How the solver solves its islands ([`Method::Sweep`] unless [`Family::Lines`]).
+    pub method: Method,
 }
 
 impl Setting {
@@ -68,6 +74,7 @@ impl Setting {
             iterations,
             tethers: false,
             law: Law::Xpbd,
+            method: Method::Sweep,
         }
     }
 
@@ -79,6 +86,16 @@ impl Setting {
             iterations,
             tethers: false,
             law: Law::Xpbd,
+            method: Method::Sweep,
+        }
+    }
+
+    /// `substeps` × 1, solved by lines.
+    pub fn lines(substeps: u32) -> Self {
+        Self {
+            family: Family::Lines,
+            method: Method::Lines,
+            ..Self::substeps(substeps, 1)
         }
     }
 
@@ -114,6 +131,9 @@ impl Setting {
         if self.law == Law::Plain {
             label.push_str(" plain");
         }
+        if self.method == Method::Lines {
+            label.push_str(" lines");
+        }
         label
     }
 
@@ -143,12 +163,31 @@ pub fn step(
     mut observe: impl FnMut(&Solver, f64),
 ) {
     let plain = setting.law == Law::Plain;
+    // (Sweep settings step the scene's solver as built, unorganized: one island in order.)
+    if setting.method != Method::Sweep && solver.method != setting.method {
+        use_method(solver, setting.method);
+    }
     solver.step_observed(config, plain, &Serial, |solver, substep| {
         observe(
             solver,
             substep.index as f64 * config.timestep / substep.count as f64,
         )
     });
+}
+
+/// Switches `solver` to `method` (organizing it, which must keep every particle where it is:
+/// the scenes measure particles by index).
+pub fn use_method(solver: &mut Solver, method: Method) {
+    solver.method = method;
+    let reorder = solver.organize();
+    assert!(
+        reorder
+            .particles
+            .iter()
+            .enumerate()
+            .all(|(new, &old)| new == old as usize),
+        "organizing moved particles: the scene's indices would be wrong"
+    );
 }
 
 /// Runs `steps` fixed steps without observing anything.
