@@ -47,21 +47,24 @@ fn energy_scale(app: &App, extent: f64) -> f64 {
 /// A 1 kg weight on a 1 m chain of ten 1 g links (1000:1), released horizontally, damping
 /// 0.5/s, 20 s.
 ///
-/// Measured: energy never above its start (peak −1.4·10⁻³ J below it). Gauss–Seidel moves the
-/// light end of the weight's link almost alone, so at 8 substeps the link holding the weight
-/// stretches 95 % at the bottom of the swing and 37 % at rest (≈ (1 + w_light/w_heavy)·g·h²/L);
-/// at 64 substeps 1.5 % / 0.6 %; with tethers 1.7 % / 0.004 %.
+/// Measured: energy never above its start (peak −1.4·10⁻³ J below it). Swept, Gauss–Seidel
+/// moves the light end of the weight's link almost alone, so at 8 substeps the link holding the
+/// weight stretches 95 % at the bottom of the swing and 37 % at rest (≈ (1 + w_light/w_heavy)·
+/// g·h²/L); at 64 substeps 1.5 % / 0.6 %; with tethers 1.7 % / 0.004 %. Solved by lines (the
+/// default for a chain): below 10⁻⁸ at 8 substeps, swinging and at rest.
 #[test]
 fn heavy_weight_on_a_light_chain_settles_with_bounded_stretch() {
-    for (substeps, tethers, bound_swing, bound_rest) in [
-        (8, false, 1.2, 0.45),
-        (64, false, 0.025, 0.01),
-        (8, true, 0.03, 1e-3),
+    for (method, substeps, tethers, bound_swing, bound_rest) in [
+        (SolveMethod::Sweep, 8, false, 1.2, 0.45),
+        (SolveMethod::Sweep, 64, false, 0.025, 0.01),
+        (SolveMethod::Sweep, 8, true, 0.03, 1e-3),
+        (SolveMethod::Auto, 8, false, 1e-6, 1e-6),
     ] {
         let mut app = app();
         app.insert_resource(VerletConfig {
             substeps,
             damping: 0.5,
+            method,
             ..default()
         });
         let rope = spawn(&mut app, |c| {
@@ -83,7 +86,7 @@ fn heavy_weight_on_a_light_chain_settles_with_bounded_stretch() {
         let rest_stretch = solver_max_stretch(&app);
         let ke = kinetic_energy(&app);
         println!(
-            "1000:1, {substeps} substeps, tethers {tethers}: energy rise {:.2e} J, stretch {max_stretch:.4} swing / {rest_stretch:.5} rest, KE {ke:.1e} J",
+            "1000:1, {method:?}, {substeps} substeps, tethers {tethers}: energy rise {:.2e} J, stretch {max_stretch:.4} swing / {rest_stretch:.5} rest, KE {ke:.1e} J",
             max_energy - start
         );
         assert!(max_energy <= start + 1e-6 * scale, "energy grew");
@@ -99,20 +102,23 @@ fn heavy_weight_on_a_light_chain_settles_with_bounded_stretch() {
 /// A 2 m chain of 200 links (1 kg each) pinned at one end, released horizontally, damping
 /// 0.5/s, 20 s.
 ///
-/// Measured: energy never above its start; largest link stretch 185 % while swinging and 75 %
-/// at rest at 8 substeps (the top links carry 200 links' weight with one projection per
-/// substep); 19 % / 4.7 % at 32 substeps, 42 % / 0.2 % with tethers.
+/// Measured: energy never above its start. Swept: largest link stretch 185 % while swinging
+/// and 75 % at rest at 8 substeps (the top links carry 200 links' weight with one projection per
+/// substep); 19 % / 4.7 % at 32 substeps, 42 % / 0.2 % with tethers. Solved by lines (the
+/// default for a chain): below 10⁻⁸ at 8 substeps, swinging and at rest.
 #[test]
 fn two_hundred_link_chain_settles_with_bounded_stretch() {
-    for (substeps, tethers, bound_swing, bound_rest) in [
-        (8, false, 2.2, 0.9),
-        (32, false, 0.25, 0.06),
-        (8, true, 0.5, 0.005),
+    for (method, substeps, tethers, bound_swing, bound_rest) in [
+        (SolveMethod::Sweep, 8, false, 2.2, 0.9),
+        (SolveMethod::Sweep, 32, false, 0.25, 0.06),
+        (SolveMethod::Sweep, 8, true, 0.5, 0.005),
+        (SolveMethod::Auto, 8, false, 1e-6, 1e-6),
     ] {
         let mut app = app();
         app.insert_resource(VerletConfig {
             substeps,
             damping: 0.5,
+            method,
             ..default()
         });
         let rope = spawn(&mut app, |c| {
@@ -128,7 +134,7 @@ fn two_hundred_link_chain_settles_with_bounded_stretch() {
         let rest_stretch = solver_max_stretch(&app);
         let ke = kinetic_energy(&app);
         println!(
-            "200 links, {substeps} substeps, tethers {tethers}: energy rise {:.2e} J, stretch {max_stretch:.3} swing / {rest_stretch:.4} rest, KE {ke:.1e} J",
+            "200 links, {method:?}, {substeps} substeps, tethers {tethers}: energy rise {:.2e} J, stretch {max_stretch:.3} swing / {rest_stretch:.4} rest, KE {ke:.1e} J",
             max_energy - start
         );
         assert!(max_energy <= start + 1e-6 * scale, "energy grew");

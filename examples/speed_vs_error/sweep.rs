@@ -6,6 +6,7 @@
 use crate::sim::{
     Column, Family, Law, Scene, Setting, TIMESTEP, projections_per_step, run, steps_in,
 };
+use bevy_verlet_physics::solver::Method;
 use std::time::{Duration, Instant};
 
 /// How much to run.
@@ -81,12 +82,17 @@ impl Plan {
         settings
     }
 
-    /// 1 × N, S × 1 and S × 4 under both laws (compliant materials).
+    /// 1 × N, S × 1 and S × 4 under both laws (compliant materials), and lines under XPBD.
     pub fn laws(&self) -> Vec<Setting> {
         let mut base = self.lean();
         base.extend(self.budgets().iter().map(|&s| Setting::substeps(s, 4)));
         let mut settings = base.clone();
-        settings.extend(base.iter().map(|s| s.with_law(Law::Plain)));
+        // (Plain stiffness never accumulates multipliers; lines always do: no plain lines.)
+        settings.extend(
+            base.iter()
+                .filter(|s| s.method == Method::Sweep)
+                .map(|s| s.with_law(Law::Plain)),
+        );
         settings
     }
 }

@@ -264,20 +264,21 @@ impl LineSolve<'_, '_> {
         let v = self.scratch;
         let mut shake = self.shake;
         let mut taut = false;
-        let mut predicted: f64 = 0.0;
-        let mut violated: f64 = 0.0;
+        let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
         let mut before = DVec3::ZERO; // s_{k−1} λ_{k−1}
-        let mut anchor: Option<(DVec3, f64)> = None; // last immovable particle, rest since
+        // The last immovable particle and the rest length of the rigid sticks since (∞ once a
+        // stick that can stretch is passed).
+        let (mut anchor, mut anchor_rest): (Option<DVec3>, f64) = (None, 0.0);
         let m = line.sticks.len();
         let mut x = self.position.get(line.particles[0] as usize);
         for j in 0..=m {
             let p = line.particles[j] as usize;
             let w = self.inverse_mass[p];
             if w <= 0.0 {
-                if let Some((at, rest)) = anchor {
-                    taut |= (x - at).length() >= rest * (1.0 - TAUT);
+                if let Some(at) = anchor {
+                    taut |= (x - at).length() >= anchor_rest * (1.0 - TAUT);
                 }
-                anchor = Some((x, 0.0));
+                (anchor, anchor_rest) = (Some(x), 0.0);
             }
             let mut after = DVec3::ZERO;
             let mut x_next = DVec3::ZERO;
@@ -285,18 +286,24 @@ impl LineSolve<'_, '_> {
                 let s = line.sticks[j] as usize;
                 let q = line.particles[j + 1] as usize;
                 let at_start = self.previous.get(q) - self.previous.get(p);
-                let start = at_start
-                    .try_normalize()
-                    .unwrap_or_else(|| coincident_direction(s));
+                let start_length = at_start.length();
+                let start = if start_length > 1e-12 {
+                    at_start / start_length
+                } else {
+                    coincident_direction(s)
+                };
                 x_next = self.position.get(q);
                 let d = x_next - x;
-                let rest = self.sticks.rest_length[s];
-                if self.sticks.kind[s] == StickKind::Equal && self.inverse_mass[q] + w > 0.0 {
-                    let c = at_start.length() - rest;
-                    violated = violated.max(c.abs() / rest.max(1e-12));
+                let length = d.length();
+                let (rest, kind) = (self.sticks.rest_length[s], self.sticks.kind[s]);
+                let inverse_rest = 1.0 / rest.max(1e-12);
+                // (Only rigid sticks: a compliant stick's stretch is its spring's, not an error.)
+                let rigid_equal = kind == StickKind::Equal && self.sticks.compliance[s] == 0.0;
+                if rigid_equal && self.inverse_mass[q] + w > 0.0 {
+                    violated = violated.max((start_length - rest).abs() * inverse_rest);
                 }
-                predicted = predicted.max((d.length() - rest).abs() / rest.max(1e-12));
-                shake &= start.dot(d.normalize_or_zero()) >= SHAKE_MIN_COSINE;
+                predicted = predicted.max((length - rest).abs() * inverse_rest);
+                shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
                 v.start.set(line.offset + j, start);
                 // (The projection starts from the prediction: it stays a pure projection.)
                 let warm = if self.shake {
@@ -306,10 +313,13 @@ impl LineSolve<'_, '_> {
                 };
                 self.lambda.set(s, warm);
                 after = start * warm;
-                let holds = matches!(self.sticks.kind[s], StickKind::Equal | StickKind::AtMost)
+                let rigid = matches!(kind, StickKind::Equal | StickKind::AtMost)
                     && self.sticks.compliance[s] == 0.0;
-                anchor =
-                    anchor.map(|(at, sum)| (at, if holds { sum + rest } else { f64::INFINITY }));
+                anchor_rest = if rigid {
+                    anchor_rest + rest
+                } else {
+                    f64::INFINITY
+                };
             }
             if w > 0.0 {
                 self.position.set(p, x + (before - after) * w);
@@ -370,6 +380,7 @@ impl LineSolve<'_, '_> {
     }
 
     /// Stick `k` at the current iterate.
+    #[inline(always)]
     fn row(&self, line: &LineRef, k: usize) -> Row {
         let s = line.sticks[k] as usize;
         let (p, q) = (line.particles[k] as usize, line.particles[k + 1] as usize);
@@ -434,9 +445,9 @@ impl LineSolve<'_, '_> {
                     .as_ref()
                     .map_or(0.0, |next| -wq * n.dot(direction(k + 1, next)));
                 let rhs = -(row.c + alpha * self.lambda.get(s));
-                let denominator = diagonal - lower * upper_prev;
-                upper_prev = up / denominator;
-                rhs_prev = (rhs - lower * rhs_prev) / denominator;
+                let inverse = 1.0 / (diagonal - lower * upper_prev);
+                upper_prev = up * inverse;
+                rhs_prev = (rhs - lower * rhs_prev) * inverse;
                 v.upper.set(i, upper_prev);
                 v.rhs.set(i, rhs_prev);
             }
