@@ -526,3 +526,33 @@ impl VerletState {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::prelude::*;
+    use bevy::prelude::*;
+    use bevy::time::TimeUpdateStrategy;
+
+    /// Warn-once entries of despawned entities are dropped at the next rebuild (before: 50
+    /// sticks with a missing endpoint left 50 entries behind forever).
+    #[test]
+    fn warnings_of_despawned_entities_are_forgotten() {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, VerletPlugin::default()))
+            .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+        app.update();
+        let world = app.world_mut();
+        let a = world.spawn(Particle::new(Vec3::ZERO)).id();
+        let sticks: Vec<Entity> = (0..50)
+            .map(|_| world.spawn(Stick::new(a, Entity::PLACEHOLDER)).id())
+            .collect();
+        app.update();
+        let warned = |app: &App| app.world().resource::<VerletState>().warned.len();
+        assert_eq!(warned(&app), 50);
+        for stick in sticks {
+            app.world_mut().despawn(stick);
+        }
+        app.update();
+        assert_eq!(warned(&app), 0);
+    }
+}
