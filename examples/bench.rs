@@ -97,11 +97,11 @@ fn new_app(options: &Options) -> App {
     let mut app = bare_app(options);
     app.add_plugins(VerletPlugin::default())
         .insert_resource(VerletConfig {
-        substeps: options.substeps,
-        iterations: options.iterations,
-        parallel: options.threads != Some(1),
-        ..VerletConfig::default()
-    });
+            substeps: options.substeps,
+            iterations: options.iterations,
+            parallel: options.threads != Some(1),
+            ..VerletConfig::default()
+        });
     app
 }
 

@@ -187,9 +187,6 @@ impl Plugin for VerletPlugin {
             )
                 .chain(),
         );
-        app.add_systems(
-            schedule,
-            systems::run_step.in_set(VerletSystems::Substeps),
-        );
+        app.add_systems(schedule, systems::run_step.in_set(VerletSystems::Substeps));
     }
 }

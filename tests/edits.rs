@@ -15,7 +15,6 @@ struct Touched;
 
 /// Dereferences every touched particle mutably and writes nothing (a wind system that skips
 /// most particles does the same).
-#[allow(clippy::assign_op_pattern)]
 fn touch(mut particles: Query<&mut Particle, With<Touched>>) {
     for mut particle in &mut particles {
         particle.radius += 0.0;
@@ -71,7 +70,10 @@ fn a_write_that_changes_nothing_changes_nothing() {
     let b = solver_position(&app, twin).unwrap();
     let drop = 100.0 - a.y;
     assert_eq!(a.y, b.y, "touched and untouched fall alike");
-    assert!((drop - 0.5 * 9.81f32 as f64).abs() < 1e-9, "dropped {drop} m in 1 s");
+    assert!(
+        (drop - 0.5 * 9.81f32 as f64).abs() < 1e-9,
+        "dropped {drop} m in 1 s"
+    );
 }
 
 /// A resting particle touched every step by a system that writes nothing falls asleep like any
@@ -138,10 +140,7 @@ fn a_rest_length_edit_wakes_a_sleeping_island() {
     let (pivot, bob, stick) = pendulum(&mut app);
     step(&mut app, 2);
     step_until_asleep(&mut app, bob);
-    app.world_mut()
-        .get_mut::<Stick>(stick)
-        .unwrap()
-        .rest_length = Some(2.0);
+    app.world_mut().get_mut::<Stick>(stick).unwrap().rest_length = Some(2.0);
     step(&mut app, 1);
     assert!(!is_sleeping(&app, bob), "the edit woke the island");
     step(&mut app, 63);
@@ -185,7 +184,9 @@ fn wake_survives_a_rebuild() {
     step(&mut app, 2);
     step_until_asleep(&mut app, bob);
     app.world_mut().resource_mut::<VerletState>().wake(bob);
-    spawn(&mut app, |c| c.spawn(Particle::new(Vec3::new(5.0, 0.0, 0.0))).id());
+    spawn(&mut app, |c| {
+        c.spawn(Particle::new(Vec3::new(5.0, 0.0, 0.0))).id()
+    });
     step(&mut app, 1);
     assert!(!is_sleeping(&app, bob));
 }
@@ -302,7 +303,9 @@ fn pin_follows_a_child_of_a_rotated_scaled_parent() {
                 scale: Vec3::splat(2.0),
             })
             .id();
-        let child = c.spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(parent))).id();
+        let child = c
+            .spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(parent)))
+            .id();
         c.spawn((Particle::new(Vec3::ZERO), Pin::follow(child, Vec3::X * 0.5)))
             .id()
     });
@@ -358,7 +361,10 @@ fn a_particle_transform_follows_it() {
     let mut app = app();
     let (synced, plain) = spawn(&mut app, |c| {
         let synced = c
-            .spawn((Particle::new(Vec3::new(0.0, 10.0, 0.0)), Transform::default()))
+            .spawn((
+                Particle::new(Vec3::new(0.0, 10.0, 0.0)),
+                Transform::default(),
+            ))
             .id();
         let plain = c.spawn(Particle::new(Vec3::new(1.0, 10.0, 0.0))).id();
         (synced, plain)
@@ -410,7 +416,9 @@ fn paused_drawing_stands_still() {
         DT * 0.37,
     )));
     let (synced, follower) = spawn(&mut app, |c| {
-        let synced = c.spawn((Particle::new(Vec3::ZERO), Transform::default())).id();
+        let synced = c
+            .spawn((Particle::new(Vec3::ZERO), Transform::default()))
+            .id();
         let follower = c.spawn((FollowParticle(synced), Transform::default())).id();
         (synced, follower)
     });

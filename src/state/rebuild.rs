@@ -234,7 +234,9 @@ impl VerletState {
             Some(s) if s.is_finite() && s >= 0.0 => s as f64,
             Some(s) => {
                 self.warn(entity, Problem::TearStrain, || {
-                    format!("Stick tear strain {s} is negative or not finite; the stick will not tear")
+                    format!(
+                        "Stick tear strain {s} is negative or not finite; the stick will not tear"
+                    )
                 });
                 f64::INFINITY
             }
@@ -290,7 +292,8 @@ impl VerletState {
         [a, b, c]: [u32; 3],
     ) -> Option<(f64, Option<DVec3>)> {
         let p = &self.solver.particles;
-        let w = p.inverse_mass[a as usize] + p.inverse_mass[b as usize] + p.inverse_mass[c as usize];
+        let w =
+            p.inverse_mass[a as usize] + p.inverse_mass[b as usize] + p.inverse_mass[c as usize];
         let compliance = self.compliance(entity, "AngleConstraint", angle.stiffness, w)?;
         let axis = angle.axis.map(|k| k.as_dvec3());
         if let Some(k) = axis.filter(|k| k.try_normalize().is_none()) {
@@ -349,7 +352,8 @@ impl VerletState {
         }
         let islands = &self.solver.islands;
         let mut order: Vec<u32> = (0..angles_before.len() as u32).collect();
-        order.sort_by_key(|&i| islands.of_particle(new_slot[angles_before[i as usize][1] as usize]));
+        order
+            .sort_by_key(|&i| islands.of_particle(new_slot[angles_before[i as usize][1] as usize]));
         permute(&mut self.angle_entities, &order);
         for (index, &entity) in self.angle_entities.iter().enumerate() {
             debug_assert_eq!(
