@@ -107,7 +107,11 @@ fn new_app(options: &Options) -> App {
 
 /// Runs `steps` updates and returns the mean µs per update.
 fn time_steps(app: &mut App, steps: usize) -> f64 {
-    time_steps_and_plugin(app, steps).update
+    let started = Instant::now();
+    for _ in 0..steps {
+        app.update();
+    }
+    started.elapsed().as_secs_f64() * 1e6 / steps as f64
 }
 
 /// Mean µs per update, and of the plugin's gather, solve and scatter ([`VerletStats`]).

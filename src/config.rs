@@ -182,7 +182,7 @@ pub struct VerletStats {
     pub step_micros: f32,
     /// Of which: gathering components into the solver (topology rebuild included), in µs.
     pub gather_micros: f32,
-    /// Of which: the solver's substeps, in µs.
+    /// Of which: the solver's substeps and the end of the step (sleep, tearing), in µs.
     pub solve_micros: f32,
     /// Of which: scattering positions back into the components, in µs.
     pub scatter_micros: f32,

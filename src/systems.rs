@@ -449,11 +449,14 @@ pub(crate) fn tear(
     mut state: ResMut<VerletState>,
     config: Res<VerletConfig>,
     mut stats: ResMut<VerletStats>,
+    mut clock: ResMut<StepClock>,
     mut messages: MessageWriter<StickTorn>,
     mut commands: Commands,
 ) {
     let state = &mut *state;
+    let started = Instant::now();
     let torn = state.solver.finish_step();
+    clock.solve += micros_since(Some(started));
     if torn == 0 {
         return;
     }

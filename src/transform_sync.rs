@@ -8,7 +8,6 @@
 
 use crate::{Particle, VerletConfig};
 use bevy::prelude::*;
-use bevy::transform::TransformSystems;
 
 /// Makes an entity's `Transform` follow a particle (interpolated between fixed steps).
 ///
@@ -51,7 +50,10 @@ pub struct FollowStick {
 pub(crate) fn plugin(app: &mut App) {
     app.register_type::<FollowParticle>()
         .register_type::<FollowStick>()
-        .add_systems(PostUpdate, follow.before(TransformSystems::Propagate));
+        .add_systems(
+            RunFixedMainLoop,
+            follow.in_set(RunFixedMainLoopSystems::AfterFixedMainLoop),
+        );
 }
 
 fn follow(
