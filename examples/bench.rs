@@ -11,7 +11,7 @@
 //! row pinned, spacing 0.1 m, g = 9.81 m/s², structural sticks only). It prints one line:
 //! particles, sticks, steps, µs per full step (gather + solve + scatter), µs per step of the
 //! solver core alone on the same scene (measured in the same run), and the max stretch.
-//! It also prints Bevy's own cost against the plugin's, measured in the same run in three
+//! The line ends with Bevy's own cost against the plugin's, measured in the same run in three
 //! interleaved rounds of `--steps` updates (the fastest round of each counts): an app with
 //! `MinimalPlugins` alone, the same with `VerletPlugin` and no particles (the idle plugin's
 //! cost), and the scene (whose update minus the bare app's should be close to gather + solve +
@@ -291,14 +291,7 @@ fn main() {
         .fold(0.0, f64::max);
     let plugin = t.gather + t.solve + t.scatter;
     println!(
-        "Bevy alone {bevy:.1} µs/update; + VerletPlugin, no particles: {idle:.1} µs (+{:.1}); + the scene: {:.1} µs (+{:.1}, gather + solve + scatter {plugin:.1} µs: {:+.1} %)",
-        idle - bevy,
-        t.update,
-        t.update - bevy,
-        ((t.update - bevy) / plugin - 1.0) * 100.0,
-    );
-    println!(
-        "{} particles {} sticks {} steps {:.1} µs/step: gather {:.1} + solve {:.1} + scatter {:.1} µs (ECS overhead {:.2}×; core alone {:.1} µs/step; Bevy alone {:.1} µs/update) max stretch {:.3} % threads {}",
+        "{} particles {} sticks {} steps {:.1} µs/step: gather {:.1} + solve {:.1} + scatter {:.1} µs (ECS overhead {:.2}×; core alone {:.1} µs/step) max stretch {:.3} % threads {} | Bevy alone {bevy:.1} µs/update; + VerletPlugin, no particles: {idle:.1} µs (+{:.1}); + the scene: {:.1} µs (+{:.1} = gather + solve + scatter {:+.1} %)",
         state.solver.particles.len(),
         sticks.len(),
         options.steps,
@@ -308,8 +301,11 @@ fn main() {
         t.scatter,
         plugin / t.solve,
         core,
-        bevy,
         max_stretch * 100.0,
         executor.threads(),
+        idle - bevy,
+        t.update,
+        t.update - bevy,
+        ((t.update - bevy) / plugin - 1.0) * 100.0,
     );
 }

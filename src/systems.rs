@@ -33,11 +33,14 @@ type CountedComponents<'w, 's> = (
     Query<'w, 's, (), With<Tethered>>,
 );
 
-/// Removal buffers of the components whose removal changes the topology.
+/// Removal buffers: of the components whose removal changes the topology, then of those whose
+/// removal wakes an island (tethers, island overrides).
 type Removals<'w, 's> = (
     RemovedComponents<'w, 's, Particle>,
     RemovedComponents<'w, 's, Stick>,
     RemovedComponents<'w, 's, AngleConstraint>,
+    RemovedComponents<'w, 's, Tethered>,
+    RemovedComponents<'w, 's, IslandOverride>,
 );
 
 /// What changed since the last run, read from removal buffers, component counts and change
@@ -49,10 +52,15 @@ pub(crate) fn detect_topology_changes(
     added_particles: Query<(), Added<Particle>>,
     added_tethers: Query<Entity, Added<Tethered>>,
     changed_overrides: Query<Entity, Changed<IslandOverride>>,
-    (mut removed_particles, mut removed_sticks, mut removed_angles): Removals,
-    mut removed_tethers: RemovedComponents<Tethered>,
-    mut removed_overrides: RemovedComponents<IslandOverride>,
+    removals: Removals,
 ) {
+    let (
+        mut removed_particles,
+        mut removed_sticks,
+        mut removed_angles,
+        mut removed_tethers,
+        mut removed_overrides,
+    ) = removals;
     // Drain every removal buffer (they are cleared each frame, paused or not).
     let removed = removed_particles.read().count()
         + removed_sticks.read().count()
@@ -266,7 +274,7 @@ fn reconcile_pins(
         let Ok((_, particle, ..)) = particles.get(entity) else {
             continue;
         };
-        let (w, _) = state.material(entity, &particle);
+        let (w, _) = state.material(entity, particle);
         if !state.remove_pin(index, w) {
             state.dirty = true;
             return;

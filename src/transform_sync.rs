@@ -56,11 +56,14 @@ pub(crate) fn plugin(app: &mut App) {
         );
 }
 
+/// Particles whose `Transform` is synced: not followers themselves.
+type NotFollowing = (Without<FollowParticle>, Without<FollowStick>);
+
 fn follow(
     time: Res<Time<Fixed>>,
     config: Res<VerletConfig>,
     particles: Query<&Particle>,
-    mut synced: Query<(&Particle, &mut Transform), (Without<FollowParticle>, Without<FollowStick>)>,
+    mut synced: Query<(&Particle, &mut Transform), NotFollowing>,
     mut followers: Query<(&FollowParticle, &mut Transform), Without<FollowStick>>,
     mut sticks: Query<(&FollowStick, &mut Transform), Without<FollowParticle>>,
 ) {
