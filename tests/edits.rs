@@ -222,6 +222,54 @@ fn an_island_override_added_later_is_read() {
     assert_eq!(island_settings(&app, bob), None);
 }
 
+/// Stiffness, kind and tear strain edits apply in place, with no rebuild (before: the edits
+/// cost a rebuild): a stick made soft stretches under its bob, a stick made a strut stops
+/// holding its bob up, and a tear strain then tears the soft one.
+#[test]
+fn stick_parameter_edits_apply_in_place() {
+    let mut app = app();
+    let (pivot, bob, soft) = pendulum(&mut app);
+    let (_, falling, strut) = spawn(&mut app, |c| {
+        let pivot = c
+            .spawn((Particle::new(Vec3::X * 3.0), Pin::at(Vec3::X * 3.0)))
+            .id();
+        let bob = c.spawn(Particle::new(Vec3::new(3.0, -1.0, 0.0))).id();
+        let stick = c.spawn(Stick::new(pivot, bob)).id();
+        (pivot, bob, stick)
+    });
+    step(&mut app, 2);
+    let before = rebuilds(&app);
+    app.world_mut().get_mut::<Stick>(soft).unwrap().stiffness = Stiffness::Compliance(0.01);
+    app.world_mut().get_mut::<Stick>(strut).unwrap().kind = StickKind::AtLeast;
+    let mut longest: f32 = 0.0;
+    for _ in 0..32 {
+        step(&mut app, 1);
+        longest = longest.max((position(&app, bob) - position(&app, pivot)).length());
+    }
+    assert_eq!(rebuilds(&app), before, "no rebuild");
+    assert!(longest > 1.05, "the soft stick stretched to {longest}");
+    assert!(
+        position(&app, falling).y < -1.5,
+        "the strut let its bob fall"
+    );
+    check_consistency(&mut app).unwrap();
+    app.world_mut().get_mut::<Stick>(soft).unwrap().tear_strain = Some(0.01);
+    step(&mut app, 32);
+    assert_eq!(app.world().resource::<VerletStats>().torn_total, 1);
+}
+
+/// Adding `Tethered` to a particle of a sleeping island wakes it (before: it slept on).
+#[test]
+fn tethered_wakes_a_sleeping_island() {
+    let mut app = app();
+    let (_, bob, _) = pendulum(&mut app);
+    step(&mut app, 2);
+    step_until_asleep(&mut app, bob);
+    app.world_mut().entity_mut(bob).insert(Tethered);
+    step(&mut app, 1);
+    assert!(!is_sleeping(&app, bob));
+}
+
 /// Adds 1 mm to every stick's rest length each step (a winch).
 fn winch(mut sticks: Query<&mut Stick>) {
     for mut stick in &mut sticks {
