@@ -183,15 +183,36 @@ pub(crate) struct Inputs<'w, 's> {
     entities: &'w Entities,
 }
 
+/// Every particle (for a rebuild), and the changed ones (a `Changed` filter skips the rest
+/// without fetching them).
+type ParticleQueries<'w, 's> = ParamSet<
+    'w,
+    's,
+    (
+        Query<'static, 'static, ParticleData>,
+        Query<'static, 'static, (Entity, &'static Particle), Changed<Particle>>,
+    ),
+>;
+
+/// Every `T` (for a rebuild), and the changed ones.
+type EditQueries<'w, 's, T> = ParamSet<
+    'w,
+    's,
+    (
+        Query<'static, 'static, (Entity, &'static mut T)>,
+        Query<'static, 'static, (Entity, &'static mut T), Changed<T>>,
+    ),
+>;
+
 /// Gathers what users changed into the solver: topology changes rebuild its tables; particle
 /// edits, stick and angle parameters, pins and island overrides apply in place.
 pub(crate) fn prepare(
     mut state: ResMut<VerletState>,
     mut clock: ResMut<StepClock>,
     inputs: Inputs,
-    mut particles: Query<ParticleData>,
-    mut sticks: Query<(Entity, &mut Stick)>,
-    mut angles: Query<(Entity, &mut AngleConstraint)>,
+    mut particles: ParticleQueries,
+    mut sticks: EditQueries<Stick>,
+    mut angles: EditQueries<AngleConstraint>,
 ) {
     clock.started = Some(Instant::now());
     let state = &mut *state;
@@ -201,17 +222,17 @@ pub(crate) fn prepare(
     // An edited particle the solver does not know (e.g. a rejected one that was fixed) needs a
     // rebuild.
     if !state.dirty {
-        for (entity, particle, ..) in particles.iter_mut() {
-            if particle.is_changed() && !state.owns_slot(entity, &particle) {
+        for (entity, particle) in &particles.p1() {
+            if !state.owns_slot(entity, particle) {
                 state.dirty = true;
                 break;
             }
         }
     }
     if !state.dirty {
-        reconcile_pins(state, &inputs.pins, &particles);
+        reconcile_pins(state, &inputs.pins, &particles.p0());
     }
-    edit_constraints(state, &mut sticks, &mut angles);
+    edit_constraints(state, &mut sticks.p1(), &mut angles.p1());
     let rebuilt = state.dirty;
     if rebuilt {
         let rebuild = RebuildInputs {
@@ -221,16 +242,14 @@ pub(crate) fn prepare(
         };
         state.rebuild(
             &rebuild,
-            &mut particles,
-            &mut sticks,
-            &mut angles,
+            &mut particles.p0(),
+            &mut sticks.p0(),
+            &mut angles.p0(),
             inputs.entities,
         );
     } else {
-        for (entity, particle, ..) in particles.iter_mut() {
-            if particle.is_changed() {
-                state.gather_edit(entity, &particle, step.gravity, dt, h);
-            }
+        for (entity, particle) in &particles.p1() {
+            state.gather_edit(entity, particle, step.gravity, dt, h);
         }
         if state.overrides_changed {
             state.refresh_island_settings(inputs.overrides.iter());
@@ -286,13 +305,10 @@ fn reconcile_pins(
 /// when the change takes a rebuild), and their islands wake.
 fn edit_constraints(
     state: &mut VerletState,
-    sticks: &mut Query<(Entity, &mut Stick)>,
-    angles: &mut Query<(Entity, &mut AngleConstraint)>,
+    sticks: &mut Query<(Entity, &mut Stick), Changed<Stick>>,
+    angles: &mut Query<(Entity, &mut AngleConstraint), Changed<AngleConstraint>>,
 ) {
     for (entity, mut stick) in sticks.iter_mut() {
-        if !stick.is_changed() {
-            continue;
-        }
         let stick = stick.bypass_change_detection();
         state.wake_entities.extend([stick.a, stick.b]);
         if !state.dirty && !state.edit_stick(entity, stick) {
@@ -300,9 +316,6 @@ fn edit_constraints(
         }
     }
     for (entity, mut angle) in angles.iter_mut() {
-        if !angle.is_changed() {
-            continue;
-        }
         let angle = angle.bypass_change_detection();
         state.wake_entities.extend([angle.a, angle.b, angle.c]);
         if !state.dirty && !state.edit_angle(entity, angle) {
