@@ -70,7 +70,7 @@ pub enum VerletSubstepSystems {
 /// [`VerletPlugin::new`]). As in avian, gameplay systems in `FixedUpdate` run before the step
 /// without any ordering.
 ///
-/// Bevy's fixed timestep is the accumulator of the seeds: `FixedUpdate` runs as many 64 Hz steps
+/// Bevy's fixed timestep is the accumulator of the seeds: `FixedMain` runs as many 64 Hz steps
 /// as real time needs, and `Time<Virtual>` caps a long frame at 250 ms (its `max_delta`), so a
 /// hitch runs at most 16 steps instead of spiralling.
 ///
