@@ -90,6 +90,7 @@ pub(crate) fn plugin(app: &mut App) {
 
 fn update_cloth_meshes(
     time: Res<Time<Fixed>>,
+    config: Res<crate::VerletConfig>,
     cloths: Query<(&ClothMesh, &Mesh3d, Option<&GlobalTransform>)>,
     particles: Query<&Particle>,
     mut meshes: ResMut<Assets<Mesh>>,
@@ -97,7 +98,7 @@ fn update_cloth_meshes(
     mut normals: Local<Vec<[f32; 3]>>,
 ) {
     let (positions, normals) = (&mut *positions, &mut *normals);
-    let fraction = time.overstep_fraction();
+    let fraction = config.render_fraction(&time);
     for (cloth, mesh, transform) in &cloths {
         // Particles are in world space; undo the mesh entity's own transform.
         let to_local = transform.map_or(Affine3A::IDENTITY, |t| t.affine().inverse());

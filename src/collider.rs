@@ -3,8 +3,11 @@
 use crate::solver::{Collider as CoreCollider, Shape};
 use bevy::prelude::*;
 
-/// The shape of a [`VerletCollider`]. Coordinates are world space, offset by the entity's
-/// `Transform` translation when it has one (so a sphere follows its entity).
+/// The shape of a [`VerletCollider`], in the entity's local space: its up-to-date
+/// `GlobalTransform` (its `Transform` and its parents') places it, so a collider follows its
+/// entity, and scale sizes it (a sphere by the largest scale factor). Without a `Transform`
+/// the coordinates are world space. Boxes stay axis-aligned: a rotated box is warned about
+/// and its rotation ignored.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Debug, Clone)]
 pub enum ColliderShape {
@@ -106,10 +109,20 @@ impl VerletCollider {
         self
     }
 
-    /// The solver's collider, offset by `translation`; `None` (with the reason) if any number is
-    /// not usable.
-    pub(crate) fn to_core(self, translation: Vec3) -> Result<CoreCollider, &'static str> {
+    /// The solver's collider, placed by an entity's scale, rotation and translation (a box's
+    /// rotation is ignored: the solver's boxes are axis-aligned); `None` (with the reason) if
+    /// any number is not usable.
+    pub(crate) fn to_core(
+        self,
+        scale: Vec3,
+        rotation: Quat,
+        translation: Vec3,
+    ) -> Result<CoreCollider, &'static str> {
+        if !(scale.is_finite() && rotation.is_finite() && translation.is_finite()) {
+            return Err("non-finite GlobalTransform");
+        }
         let offset = translation.as_dvec3();
+        let place = |p: Vec3| (rotation * (p * scale)).as_dvec3() + offset;
         let shape = match self.shape {
             ColliderShape::Bounds { min, max } => {
                 if min.is_nan() || max.is_nan() {
@@ -123,21 +136,28 @@ impl VerletCollider {
                 {
                     return Err("bounds with min > max on an axis (an empty box)");
                 }
+                // (A zero scale times an infinite bound is NaN: such an axis stays free.)
+                let scaled = |v: Vec3| {
+                    let s = v * scale;
+                    Vec3::select(s.is_nan_mask(), v, s)
+                };
+                let (a, b) = (scaled(min), scaled(max));
                 Shape::Inside {
-                    min: min.as_dvec3() + offset,
-                    max: max.as_dvec3() + offset,
+                    min: a.min(b).as_dvec3() + offset,
+                    max: a.max(b).as_dvec3() + offset,
                 }
             }
             ColliderShape::Plane { point, normal } => {
-                let normal = normal
+                // Normals map by the inverse transpose: rotation and 1/scale.
+                let normal = (rotation * (normal / scale))
                     .as_dvec3()
                     .try_normalize()
-                    .ok_or("plane with a zero or non-finite normal")?;
+                    .ok_or("plane with a zero or non-finite normal (or a zero scale)")?;
                 if !point.is_finite() {
                     return Err("plane with a non-finite point");
                 }
                 Shape::Plane {
-                    point: point.as_dvec3() + offset,
+                    point: place(point),
                     normal,
                 }
             }
@@ -146,14 +166,11 @@ impl VerletCollider {
                     return Err("sphere with a non-finite centre or a negative radius");
                 }
                 Shape::Sphere {
-                    center: center.as_dvec3() + offset,
-                    radius: radius as f64,
+                    center: place(center),
+                    radius: radius as f64 * scale.abs().max_element() as f64,
                 }
             }
         };
-        if !offset.is_finite() {
-            return Err("non-finite Transform translation");
-        }
         Ok(CoreCollider {
             shape,
             restitution: (self.restitution as f64).clamp(0.0, 1.0),

@@ -150,6 +150,25 @@ impl VerletConfig {
     pub fn step_once(&mut self) {
         self.pending_steps += 1;
     }
+
+    /// How far between the last two fixed steps drawn positions are interpolated: `time`'s
+    /// overstep fraction, or `1` (the last step's result) while [`VerletConfig::paused`], so
+    /// that everything drawn stands still. The plugin's gizmos, `ClothMesh`, followers and
+    /// synced `Transform`s use it; use it for your own drawing too.
+    ///
+    /// ```
+    /// use bevy::prelude::*;
+    /// use bevy_verlet_physics::prelude::*;
+    /// let config = VerletConfig { paused: true, ..default() };
+    /// assert_eq!(config.render_fraction(&Time::<Fixed>::default()), 1.0);
+    /// ```
+    pub fn render_fraction(&self, time: &Time<Fixed>) -> f32 {
+        if self.paused {
+            1.0
+        } else {
+            time.overstep_fraction().clamp(0.0, 1.0)
+        }
+    }
 }
 
 /// Acceleration applied to every movable particle. Default `(0, −9.81, 0)` (metres); use
@@ -207,7 +226,7 @@ pub struct VerletStats {
     pub step_micros: f32,
     /// Of which: gathering components into the solver (topology rebuild included), in µs.
     pub gather_micros: f32,
-    /// Of which: the solver's substeps, in µs.
+    /// Of which: the solver's substeps and the end of the step (sleep, tearing), in µs.
     pub solve_micros: f32,
     /// Of which: scattering positions back into the components, in µs.
     pub scatter_micros: f32,

@@ -134,10 +134,11 @@ fn draw(
     state: Res<VerletState>,
     cache: Res<StickColors>,
     time: Res<Time<Fixed>>,
+    config: Res<crate::VerletConfig>,
     mut gizmos: Gizmos<VerletGizmos>,
 ) {
     let style = gizmos.config_ext.clone();
-    let fraction = time.overstep_fraction().clamp(0.0, 1.0);
+    let fraction = config.render_fraction(&time);
     let solver = &state.solver;
     if state.render_current.len() != solver.particles.len() {
         return;

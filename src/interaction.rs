@@ -331,9 +331,10 @@ fn highlight(
     interaction: Res<VerletInteraction>,
     particles: Query<&Particle>,
     time: Res<Time<Fixed>>,
+    config: Res<VerletConfig>,
     mut gizmos: Gizmos<VerletGizmos>,
 ) {
-    let fraction = time.overstep_fraction();
+    let fraction = config.render_fraction(&time);
     for (entity, scale) in [(interaction.hovered, 1.0), (interaction.grabbed(), 1.4)] {
         if let Some(particle) = entity.and_then(|e| particles.get(e).ok()) {
             let radius = (interaction.grab_radius * 0.4 * scale).max(particle.radius);

@@ -65,7 +65,9 @@ pub use island::IslandOverride;
 pub use messages::StickTorn;
 pub use particle::{Particle, Tethered};
 pub use pin::{Pin, PinTarget};
-pub use plugin::{VerletPlugin, VerletSubstepSystems, VerletSubsteps, VerletSystems};
+pub use plugin::{
+    VerletPlugin, VerletSchedule, VerletSubstepSystems, VerletSubsteps, VerletSystems,
+};
 pub use solver::StickKind;
 pub use state::VerletState;
 pub use stick::{AngleConstraint, Stick, Stiffness};
@@ -79,8 +81,8 @@ pub mod prelude {
     pub use crate::{
         AngleConstraint, ColliderShape, FollowParticle, FollowStick, Gravity, IslandOverride,
         Particle, Pin, PinTarget, Sleeping, SolveMethod, Stick, StickKind, StickTorn, Stiffness,
-        Tethered, VerletCollider, VerletConfig, VerletPlugin, VerletState, VerletStats,
-        VerletSubstepSystems, VerletSubsteps, VerletSystems,
+        Tethered, VerletCollider, VerletConfig, VerletPlugin, VerletSchedule, VerletState,
+        VerletStats, VerletSubstepSystems, VerletSubsteps, VerletSystems,
     };
     #[cfg(feature = "gizmos")]
     pub use crate::{

@@ -17,7 +17,14 @@ use bevy::prelude::*;
 /// (not the seeds' `x_prev = x`, which lags by half a step of velocity).
 ///
 /// The solver keeps its own `f64` copy of the state, so reading these `f32` fields never costs
-/// accuracy, even at 10⁶ px from the origin.
+/// accuracy, even at 10⁶ px from the origin. Only a real change of `position` or
+/// `previous_position` moves the particle: a system that takes `&mut Particle` and writes the
+/// same values (or only `inverse_mass` / `radius`) leaves its motion and its sleep alone.
+///
+/// A particle entity that has a `Transform` gets it written every frame, interpolated between
+/// fixed steps, so `(Particle, Sprite)` or `(Particle, Mesh3d)` (both require a `Transform`)
+/// draws where the particle is. Builders spawn bare particles: insert a `Transform` or a sprite
+/// on `composite.particles` to opt in; particles without one cost nothing.
 ///
 /// ```
 /// use bevy::prelude::*;

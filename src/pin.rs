@@ -8,11 +8,13 @@ use bevy::prelude::*;
 pub enum PinTarget {
     /// A world position; change it to move the pin (e.g. to follow the cursor).
     Position(Vec3),
-    /// Another entity's `Transform` translation plus an offset.
+    /// Another entity: a simulated particle's position plus `offset`, or else `offset` in the
+    /// entity's frame, mapped through its up-to-date `GlobalTransform` (its `Transform` and its
+    /// parents', computed when the step gathers: a child entity, a rotated or scaled parent).
     Entity {
         /// The entity to follow.
         entity: Entity,
-        /// Offset added to its translation.
+        /// Offset: world-space from a followed particle, local to a followed entity's frame.
         offset: Vec3,
     },
 }
@@ -47,7 +49,9 @@ impl Pin {
         }
     }
 
-    /// Pins to `entity`'s translation plus `offset`.
+    /// Pins to `entity`: `offset` in its frame (its `GlobalTransform`), or, if `entity` is a
+    /// simulated particle, its position plus `offset` (a rope tied to a ragdoll's hand follows
+    /// the hand, one step behind).
     pub fn follow(entity: Entity, offset: Vec3) -> Self {
         Self {
             target: PinTarget::Entity { entity, offset },

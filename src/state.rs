@@ -8,13 +8,16 @@
 //! accuracy.
 
 use crate::particle::NO_SLOT;
-use crate::solver::islands::permute;
-use crate::solver::{GlobalSubstep, IslandSettings, Particles, Solver, consistent_previous};
-use crate::{AngleConstraint, IslandOverride, Particle, Pin, PinTarget, Stick};
+use crate::solver::{GlobalSubstep, Particles, Solver, consistent_previous};
+use crate::{Particle, Pin, PinTarget};
 use bevy::ecs::entity::EntityHashMap;
 use bevy::platform::collections::HashSet;
 use bevy::prelude::*;
+use bevy::transform::helper::TransformHelper;
 use glam::DVec3;
+
+mod rebuild;
+pub(crate) use rebuild::{ParticleData, RebuildInputs};
 
 /// What went wrong with a component, for warn-once bookkeeping.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -58,8 +61,17 @@ pub struct VerletState {
     pub(crate) particle_entities: Vec<Entity>,
     /// Stick entity of every solver stick.
     pub(crate) stick_entities: Vec<Entity>,
+    /// Angle constraint entity of every solver angle constraint.
+    pub(crate) angle_entities: Vec<Entity>,
     /// Entity → particle slot (valid between rebuilds).
     pub(crate) slots: EntityHashMap<u32>,
+    /// Stick entity → solver stick (valid between rebuilds).
+    pub(crate) stick_index: EntityHashMap<u32>,
+    /// Angle constraint entity → solver angle constraint (valid between rebuilds).
+    pub(crate) angle_index: EntityHashMap<u32>,
+    /// Particle entities whose islands wake before the next step (kept by entity, so that a
+    /// request survives a topology rebuild in the same step).
+    pub(crate) wake_entities: Vec<Entity>,
     /// Force a rebuild before the next step.
     pub(crate) dirty: bool,
     /// Incremented on every rebuild (render caches key on it).
@@ -73,13 +85,17 @@ pub struct VerletState {
     pub(crate) render_current: Vec<Vec3>,
     /// Sticks torn in the last step that the ECS has not removed yet.
     pub(crate) torn_pending: usize,
-    /// How many `Particle`, `Stick`, `AngleConstraint`, `Pin` and `Tethered` components existed
-    /// when topology changes were last checked. A removal the removal buffers no longer hold
-    /// (they are cleared every frame, and frames that run no fixed step are common above 64 fps)
+    /// How many `Particle`, `Stick`, `AngleConstraint` and `Tethered` components existed when
+    /// topology changes were last checked. A removal the removal buffers no longer hold (they
+    /// are cleared every frame, and frames that run no fixed step are common above 64 fps)
     /// still shows up as a changed count.
-    pub(crate) component_counts: [usize; 5],
+    pub(crate) component_counts: [usize; 4],
+    /// An `IslandOverride` was added, changed or removed since the last step.
+    pub(crate) overrides_changed: bool,
     warned: HashSet<(Entity, Problem)>,
     scratch: Particles,
+    /// The render arrays of the last topology, read while rebuilding.
+    scratch_render: [Vec<Vec3>; 2],
 }
 
 impl VerletState {
@@ -125,8 +141,10 @@ impl VerletState {
     }
 
     /// Wakes the island of a particle entity before the next step (see
-    /// [`Sleeping`](crate::Sleeping)). Editing a `Particle` wakes its island by itself; call
-    /// this when something the solver cannot see should disturb a resting island.
+    /// [`Sleeping`](crate::Sleeping)). Editing a `Particle`, a `Stick`, a `Pin` or anything
+    /// else the solver reads wakes its island by itself; call this when something the solver
+    /// cannot see should disturb a resting island. The request holds across a topology rebuild
+    /// in the same step.
     ///
     /// ```
     /// use bevy::prelude::*;
@@ -139,9 +157,19 @@ impl VerletState {
     /// # bevy::ecs::system::assert_is_system(poke);
     /// ```
     pub fn wake(&mut self, entity: Entity) {
-        if let Some(slot) = self.slot(entity) {
-            self.solver.wake(slot);
+        self.wake_entities.push(entity);
+    }
+
+    /// Passes the wake requests made by entity to the solver (after any rebuild).
+    pub(crate) fn apply_wakes(&mut self) {
+        let mut entities = std::mem::take(&mut self.wake_entities);
+        for &entity in &entities {
+            if let Some(slot) = self.slot(entity) {
+                self.solver.wake(slot);
+            }
         }
+        entities.clear();
+        self.wake_entities = entities;
     }
 
     /// Wakes every island before the next step.
@@ -178,7 +206,7 @@ impl VerletState {
     }
 
     /// Validated inverse mass and radius of a particle component (with warnings).
-    fn material(&mut self, entity: Entity, particle: &Particle) -> (f64, f64) {
+    pub(crate) fn material(&mut self, entity: Entity, particle: &Particle) -> (f64, f64) {
         let w = particle.inverse_mass;
         let inverse_mass = if w.is_finite() && w >= 0.0 {
             w as f64
@@ -250,7 +278,16 @@ impl VerletState {
         Some((x, consistent_previous(x, velocity, acceleration, h)))
     }
 
-    /// Applies a user's edit of a particle that is already in the solver.
+    /// `true` when a component's `position` or `previous_position` differs from what the
+    /// plugin last wrote (or accepted) for it: only such a write moves the particle.
+    pub(crate) fn moved(render: [&[Vec3]; 2], slot: usize, particle: &Particle) -> bool {
+        particle.previous_position != render[0][slot] || particle.position != render[1][slot]
+    }
+
+    /// Applies a user's edit of a particle that is already in the solver: a real change of
+    /// `position` / `previous_position` moves it, a mass or radius change applies without
+    /// touching its motion, and a write that changes nothing leaves its exact `f64` state (and
+    /// its sleep) alone.
     pub(crate) fn gather_edit(
         &mut self,
         entity: Entity,
@@ -260,14 +297,21 @@ impl VerletState {
         h: f64,
     ) {
         let slot = particle.slot as usize;
-        let pinned = self.solver.particles.inverse_mass[slot] == 0.0 && self.is_pinned(slot);
         let (mut w, radius) = self.material(entity, particle);
-        if pinned {
+        if self.is_pinned(slot) {
             w = 0.0;
         }
+        let p = &self.solver.particles;
+        let material_changed = p.inverse_mass[slot] != w || p.radius[slot] != radius;
+        let render = [&self.render_previous[..], &self.render_current[..]];
+        let moved = Self::moved(render, slot, particle);
+        if !moved && !material_changed {
+            return;
+        }
         let acceleration = if w > 0.0 { gravity } else { DVec3::ZERO };
-        if let Some((x, previous)) =
-            self.state_from_component(entity, particle, acceleration, dt, h)
+        if moved
+            && let Some((x, previous)) =
+                self.state_from_component(entity, particle, acceleration, dt, h)
         {
             self.solver.particles.position[slot] = x;
             self.solver.particles.previous[slot] = previous;
@@ -289,264 +333,43 @@ impl VerletState {
             && self.particle_entities.get(particle.slot as usize) == Some(&entity)
     }
 
-    /// Resolves a pin's target, or `None` (warned) if it cannot be.
+    /// Resolves a pin's target, or `None` (warned) if it cannot be: a position, a simulated
+    /// particle's position plus the offset, or the offset mapped through an entity's up-to-date
+    /// `GlobalTransform` (computed from its `Transform` and its ancestors').
     pub(crate) fn pin_target(
         &mut self,
         entity: Entity,
         pin: &Pin,
-        transforms: &Query<&Transform>,
+        transforms: &TransformHelper,
     ) -> Option<DVec3> {
         let target = match pin.target {
-            PinTarget::Position(position) => position,
+            PinTarget::Position(position) => position.as_dvec3(),
             PinTarget::Entity {
                 entity: followed,
                 offset,
             } => {
-                match transforms.get(followed) {
-                    Ok(transform) => transform.translation + offset,
-                    Err(_) => {
-                        self.warn(entity, Problem::PinTarget, || {
-                        format!("Pin follows {followed}, which has no Transform; the pin holds still")
-                    });
-                        return None;
+                if let Some(slot) = self.slot(followed) {
+                    self.solver.particles.position[slot as usize] + offset.as_dvec3()
+                } else {
+                    match transforms.compute_global_transform(followed) {
+                        Ok(global) => global.transform_point(offset).as_dvec3(),
+                        Err(_) => {
+                            self.warn(entity, Problem::PinTarget, || {
+                                format!("Pin follows {followed}, which has no Transform (or a parent without one); the pin holds still")
+                            });
+                            return None;
+                        }
                     }
                 }
             }
         };
         if target.is_finite() {
-            Some(target.as_dvec3())
+            Some(target)
         } else {
             self.warn(entity, Problem::PinTarget, || {
                 format!("Pin target {target} is not finite; the pin holds still")
             });
             None
-        }
-    }
-}
-
-/// What the rebuild reads of a particle entity.
-pub(crate) type ParticleData = (
-    Entity,
-    &'static mut Particle,
-    Option<&'static Pin>,
-    Has<crate::Tethered>,
-    Option<&'static IslandOverride>,
-);
-
-/// Inputs of a topology rebuild.
-pub(crate) struct RebuildInputs {
-    pub gravity: DVec3,
-    pub dt: f64,
-    pub h: f64,
-}
-
-impl VerletState {
-    /// Rebuilds the solver's topology from the components, carrying particle state over by
-    /// entity.
-    pub(crate) fn rebuild(
-        &mut self,
-        inputs: &RebuildInputs,
-        particles: &mut Query<ParticleData>,
-        sticks: &mut Query<(Entity, &mut Stick)>,
-        angles: &mut Query<(Entity, &mut AngleConstraint)>,
-        transforms: &Query<&Transform>,
-    ) {
-        let old_slots = std::mem::take(&mut self.slots);
-        std::mem::swap(&mut self.scratch, &mut self.solver.particles);
-        let old_islands = std::mem::take(&mut self.solver.islands);
-        let mut edited = Vec::new();
-        let colliders = std::mem::take(&mut self.solver.colliders);
-        self.solver.clear();
-        self.solver.colliders = colliders;
-        self.particle_entities.clear();
-        self.stick_entities.clear();
-        self.render_previous.clear();
-        self.render_current.clear();
-        self.torn_pending = 0;
-
-        for (entity, mut particle, pin, tethered, island) in particles.iter_mut() {
-            let (mut w, radius) = self.material(entity, &particle);
-            let target = pin.and_then(|pin| self.pin_target(entity, pin, transforms));
-            if pin.is_some() {
-                w = 0.0;
-            }
-            let acceleration = if w > 0.0 { inputs.gravity } else { DVec3::ZERO };
-            let old_state = old_slots.get(&entity).map(|&old| {
-                (
-                    self.scratch.position[old as usize],
-                    self.scratch.previous[old as usize],
-                )
-            });
-            if particle.is_changed() {
-                edited.push(entity);
-            }
-            let state = match old_state {
-                Some(state) if !particle.is_changed() => Some(state),
-                // An edit is gathered; an invalid edit is ignored, as without a rebuild
-                // (`gather_edit`): the particle keeps its last state.
-                _ => self
-                    .state_from_component(entity, &particle, acceleration, inputs.dt, inputs.h)
-                    .or(old_state),
-            };
-            let Some((x, previous)) = state else {
-                particle.bypass_change_detection().slot = NO_SLOT;
-                continue;
-            };
-            let slot = self
-                .solver
-                .particles
-                .push(x, previous, w, radius, entity.to_bits());
-            self.solver.tethered.push(tethered);
-            self.particle_entities.push(entity);
-            // (A rejected edit leaves non-finite values in the component: show the state kept.)
-            let shown = if particle.position.is_finite() && particle.previous_position.is_finite() {
-                [particle.previous_position, particle.position]
-            } else {
-                [x.as_vec3(); 2]
-            };
-            self.render_previous.push(shown[0]);
-            self.render_current.push(shown[1]);
-            self.slots.insert(entity, slot);
-            particle.bypass_change_detection().slot = slot;
-            if let Some(island) = island {
-                let settings = IslandSettings {
-                    substeps: island.substeps.max(1),
-                    iterations: island.iterations.max(1),
-                };
-                self.solver.island_settings.push((slot, settings));
-            }
-            if pin.is_some() {
-                let pin_index = self.solver.pins.push(slot, target.unwrap_or(x));
-                // Start from where the particle is, so a new pin drags it there smoothly.
-                self.solver.pins.from[pin_index] = x;
-            }
-        }
-
-        for (entity, mut stick) in sticks.iter_mut() {
-            let (Some(&a), Some(&b)) = (self.slots.get(&stick.a), self.slots.get(&stick.b)) else {
-                let (sa, sb) = (stick.a, stick.b);
-                self.warn(entity, Problem::Endpoint, || {
-                    format!("Stick endpoint {sa} or {sb} is not a simulated particle (despawned, never a Particle, or invalid); the stick is ignored")
-                });
-                continue;
-            };
-            if a == b {
-                self.warn(entity, Problem::SelfStick, || {
-                    "Stick connects a particle to itself; ignored".to_string()
-                });
-                continue;
-            }
-            let p = &self.solver.particles;
-            let distance = (p.position[a as usize] - p.position[b as usize]).length();
-            let w = p.inverse_mass[a as usize] + p.inverse_mass[b as usize];
-            let rest = match stick.rest_length {
-                Some(rest) if rest.is_finite() && rest >= 0.0 => rest as f64,
-                None => {
-                    // (Clamped: ends farther apart than f32's range would write back ∞.)
-                    stick.bypass_change_detection().rest_length =
-                        Some((distance as f32).min(f32::MAX));
-                    distance
-                }
-                Some(rest) => {
-                    self.warn(entity, Problem::RestLength, || {
-                        format!("Stick rest length {rest} is negative or not finite; using the current distance {distance}")
-                    });
-                    distance
-                }
-            };
-            let stiffness = stick.stiffness;
-            let Some(compliance) = self.compliance(entity, "Stick", stiffness, w) else {
-                continue;
-            };
-            let tear = match stick.tear_strain {
-                None => f64::INFINITY,
-                Some(s) if s.is_finite() && s >= 0.0 => s as f64,
-                Some(s) => {
-                    self.warn(entity, Problem::TearStrain, || {
-                        format!("Stick tear strain {s} is negative or not finite; the stick will not tear")
-                    });
-                    f64::INFINITY
-                }
-            };
-            self.solver
-                .sticks
-                .push([a, b], rest, compliance, stick.kind, tear, entity.to_bits());
-            self.stick_entities.push(entity);
-        }
-
-        for (entity, mut angle) in angles.iter_mut() {
-            let found = [angle.a, angle.b, angle.c].map(|e| self.slots.get(&e).copied());
-            let [Some(a), Some(b), Some(c)] = found else {
-                self.warn(entity, Problem::Endpoint, || {
-                    "AngleConstraint refers to an entity that is not a simulated particle; ignored"
-                        .to_string()
-                });
-                continue;
-            };
-            if a == b || b == c {
-                self.warn(entity, Problem::SelfStick, || {
-                    "AngleConstraint's vertex is also an arm; ignored".to_string()
-                });
-                continue;
-            }
-            let p = &self.solver.particles;
-            let w = p.inverse_mass[a as usize]
-                + p.inverse_mass[b as usize]
-                + p.inverse_mass[c as usize];
-            let stiffness = angle.stiffness;
-            let Some(compliance) = self.compliance(entity, "AngleConstraint", stiffness, w) else {
-                continue;
-            };
-            let axis = angle.axis.map(|k| k.as_dvec3());
-            if let Some(k) = axis.filter(|k| k.try_normalize().is_none()) {
-                self.warn(entity, Problem::Angle, || {
-                    format!(
-                        "AngleConstraint axis {k} is zero or not finite; using the unsigned angle"
-                    )
-                });
-            }
-            let index = self.solver.angles.push([a, b, c], 0.0, compliance, axis);
-            let current = self.solver.angles.angle(index, &self.solver.particles);
-            let rest = match angle.rest_angle {
-                Some(rest) if rest.is_finite() => rest as f64,
-                None => {
-                    angle.bypass_change_detection().rest_angle = Some(current as f32);
-                    current
-                }
-                Some(rest) => {
-                    self.warn(entity, Problem::Angle, || {
-                        format!("AngleConstraint rest angle {rest} is not finite; using the current angle")
-                    });
-                    current
-                }
-            };
-            self.solver.angles.rest_angle[index] = rest;
-        }
-
-        self.organize(particles);
-        // Unchanged islands sleep on; an edited particle wakes its island.
-        self.solver
-            .keep_sleep_state(&old_islands, &self.scratch.handle);
-        for entity in edited {
-            self.wake(entity);
-        }
-        self.generation += 1;
-        self.dirty = false;
-    }
-
-    /// Lets the solver find islands and reorder its arrays, then follows the new order in the
-    /// entity tables and the `Particle::slot` fields (also rebuilds the tethers).
-    fn organize(&mut self, particles: &mut Query<ParticleData>) {
-        let reorder = self.solver.organize();
-        permute(&mut self.particle_entities, &reorder.particles);
-        permute(&mut self.render_previous, &reorder.particles);
-        permute(&mut self.render_current, &reorder.particles);
-        permute(&mut self.stick_entities, &reorder.sticks);
-        for (slot, &entity) in self.particle_entities.iter().enumerate() {
-            self.slots.insert(entity, slot as u32);
-            if let Ok((_, mut particle, ..)) = particles.get_mut(entity) {
-                particle.bypass_change_detection().slot = slot as u32;
-            }
         }
     }
 }

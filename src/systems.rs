@@ -5,12 +5,15 @@ use crate::executor::with_executor;
 use crate::solver::{GlobalSubstep, Sleep, StepConfig};
 use crate::state::{ParticleData, Problem, RebuildInputs, VerletState};
 use crate::{
-    AngleConstraint, Gravity, Particle, Pin, Sleeping, StickTorn, Tethered, VerletCollider,
-    VerletConfig, VerletStats,
+    AngleConstraint, ColliderShape, Gravity, IslandOverride, Particle, Pin, Sleeping, StickTorn,
+    Tethered, VerletCollider, VerletConfig, VerletStats,
 };
-use crate::{Stick, VerletSubsteps};
+use crate::{Stick, VerletSchedule, VerletSubsteps};
+use bevy::ecs::entity::Entities;
+use bevy::ecs::system::SystemParam;
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
+use bevy::transform::helper::TransformHelper;
 use glam::DVec3;
 
 /// Timing of the step in progress.
@@ -27,57 +30,69 @@ type CountedComponents<'w, 's> = (
     Query<'w, 's, (), With<Particle>>,
     Query<'w, 's, (), With<Stick>>,
     Query<'w, 's, (), With<AngleConstraint>>,
-    Query<'w, 's, (), With<Pin>>,
     Query<'w, 's, (), With<Tethered>>,
 );
 
+/// Removal buffers: of the components whose removal changes the topology, then of those whose
+/// removal wakes an island (tethers, island overrides).
+type Removals<'w, 's> = (
+    RemovedComponents<'w, 's, Particle>,
+    RemovedComponents<'w, 's, Stick>,
+    RemovedComponents<'w, 's, AngleConstraint>,
+    RemovedComponents<'w, 's, Tethered>,
+    RemovedComponents<'w, 's, IslandOverride>,
+);
+
 /// What changed since the last run, read from removal buffers, component counts and change
-/// filters.
-#[allow(clippy::too_many_arguments)]
+/// filters. (Pins and parameter edits of sticks and angle constraints need no rebuild: `prepare`
+/// applies them in place.)
 pub(crate) fn detect_topology_changes(
     mut state: ResMut<VerletState>,
     counted: CountedComponents,
     added_particles: Query<(), Added<Particle>>,
-    changed_sticks: Query<(), Changed<Stick>>,
-    changed_angles: Query<(), Changed<AngleConstraint>>,
-    added_pins: Query<(), Added<Pin>>,
-    added_tethers: Query<(), Added<Tethered>>,
-    mut removed_particles: RemovedComponents<Particle>,
-    mut removed_sticks: RemovedComponents<Stick>,
-    mut removed_angles: RemovedComponents<AngleConstraint>,
-    mut removed_pins: RemovedComponents<Pin>,
-    mut removed_tethers: RemovedComponents<Tethered>,
+    added_tethers: Query<Entity, Added<Tethered>>,
+    changed_overrides: Query<Entity, Changed<IslandOverride>>,
+    removals: Removals,
 ) {
+    let (
+        mut removed_particles,
+        mut removed_sticks,
+        mut removed_angles,
+        mut removed_tethers,
+        mut removed_overrides,
+    ) = removals;
     // Drain every removal buffer (they are cleared each frame, paused or not).
     let removed = removed_particles.read().count()
         + removed_sticks.read().count()
-        + removed_angles.read().count()
-        + removed_pins.read().count()
-        + removed_tethers.read().count();
+        + removed_angles.read().count();
+    let state = &mut *state;
+    // Tethers and island overrides wake the islands they touch (by entity: after any rebuild).
+    let tethers_before = state.wake_entities.len();
+    state.wake_entities.extend(removed_tethers.read());
+    state.wake_entities.extend(&added_tethers);
+    let tethers_changed = state.wake_entities.len() > tethers_before;
+    let overrides_before = state.wake_entities.len();
+    state.wake_entities.extend(removed_overrides.read());
+    state.wake_entities.extend(&changed_overrides);
+    if state.wake_entities.len() > overrides_before {
+        state.overrides_changed = true;
+    }
     // The removal buffers keep a removal for two frames only: a frame rate above the fixed rate
     // runs frames with no fixed step, and a removal made then can be gone by the next step. A
-    // removal always changes a count unless something was added (or a stick or angle changed)
-    // at the same time, which the change filters see. `count` is O(archetypes).
-    let (particles, sticks, angles, pins, tethers) = &counted;
+    // removal always changes a count unless something was added at the same time, which the
+    // change filters see. `count` is O(archetypes).
+    let (particles, sticks, angles, tethers) = &counted;
     let counts = [
         particles.count(),
         sticks.count(),
         angles.count(),
-        pins.count(),
         tethers.count(),
     ];
     let counts_changed = counts != state.component_counts;
     if counts_changed {
         state.component_counts = counts;
     }
-    if removed > 0
-        || counts_changed
-        || !added_particles.is_empty()
-        || !changed_sticks.is_empty()
-        || !changed_angles.is_empty()
-        || !added_pins.is_empty()
-        || !added_tethers.is_empty()
-    {
+    if removed > 0 || counts_changed || tethers_changed || !added_particles.is_empty() {
         state.dirty = true;
     }
 }
@@ -156,61 +171,170 @@ fn warn_config(state: &mut VerletState, config: &VerletConfig, gravity: &Gravity
     }
 }
 
-/// Gathers what users changed into the solver, rebuilding the topology if it changed.
-#[allow(clippy::too_many_arguments)]
+/// What `prepare` reads besides the particles.
+#[derive(SystemParam)]
+pub(crate) struct Inputs<'w, 's> {
+    config: Res<'w, VerletConfig>,
+    gravity: Res<'w, Gravity>,
+    time: Res<'w, Time>,
+    pins: Query<'w, 's, (Entity, Ref<'static, Pin>, Has<Particle>)>,
+    colliders: Query<'w, 's, (Entity, &'static VerletCollider)>,
+    overrides: Query<'w, 's, (Entity, &'static IslandOverride)>,
+    transforms: TransformHelper<'w, 's>,
+    entities: &'w Entities,
+}
+
+/// Every particle (for a rebuild), and the changed ones (a `Changed` filter skips the rest
+/// without fetching them).
+type ParticleQueries<'w, 's> = ParamSet<
+    'w,
+    's,
+    (
+        Query<'static, 'static, ParticleData>,
+        Query<'static, 'static, (Entity, &'static Particle), Changed<Particle>>,
+    ),
+>;
+
+/// Every `T` (for a rebuild), and the changed ones.
+type EditQueries<'w, 's, T> = ParamSet<
+    'w,
+    's,
+    (
+        Query<'static, 'static, (Entity, &'static mut T)>,
+        Query<'static, 'static, (Entity, &'static mut T), Changed<T>>,
+    ),
+>;
+
+/// Gathers what users changed into the solver: topology changes rebuild its tables; particle
+/// edits, stick and angle parameters, pins and island overrides apply in place.
 pub(crate) fn prepare(
     mut state: ResMut<VerletState>,
     mut clock: ResMut<StepClock>,
-    config: Res<VerletConfig>,
-    gravity: Res<Gravity>,
-    time: Res<Time>,
-    mut particles: Query<ParticleData>,
-    mut sticks: Query<(Entity, &mut Stick)>,
-    mut angles: Query<(Entity, &mut AngleConstraint)>,
-    pins: Query<(Entity, &Pin, Has<Particle>)>,
-    colliders: Query<(Entity, &VerletCollider, Option<&Transform>)>,
-    transforms: Query<&Transform>,
+    inputs: Inputs,
+    mut particles: ParticleQueries,
+    mut sticks: EditQueries<Stick>,
+    mut angles: EditQueries<AngleConstraint>,
 ) {
     clock.started = Some(Instant::now());
-    warn_config(&mut state, &config, &gravity);
-    let step = step_config(&config, &gravity, &time);
+    let state = &mut *state;
+    warn_config(state, &inputs.config, &inputs.gravity);
+    let step = step_config(&inputs.config, &inputs.gravity, &inputs.time);
     let (dt, h) = (step.timestep, step.substep());
     // An edited particle the solver does not know (e.g. a rejected one that was fixed) needs a
     // rebuild.
     if !state.dirty {
-        for (entity, particle, ..) in particles.iter_mut() {
-            if particle.is_changed() && !state.owns_slot(entity, &particle) {
+        for (entity, particle) in &particles.p1() {
+            if !state.owns_slot(entity, particle) {
                 state.dirty = true;
                 break;
             }
         }
     }
-    if state.solver.method != config.method.core() {
-        state.solver.method = config.method.core();
+    if state.solver.method != inputs.config.method.core() {
+        state.solver.method = inputs.config.method.core();
         state.dirty = true;
     }
-    if state.dirty {
-        let inputs = RebuildInputs {
+    if !state.dirty {
+        reconcile_pins(state, &inputs.pins, &particles.p0());
+    }
+    edit_constraints(state, &mut sticks.p1(), &mut angles.p1());
+    let rebuilt = state.dirty;
+    if rebuilt {
+        let rebuild = RebuildInputs {
             gravity: step.gravity,
             dt,
             h,
         };
         state.rebuild(
-            &inputs,
-            &mut particles,
-            &mut sticks,
-            &mut angles,
-            &transforms,
+            &rebuild,
+            &mut particles.p0(),
+            &mut sticks.p0(),
+            &mut angles.p0(),
+            inputs.entities,
         );
     } else {
-        for (entity, particle, ..) in particles.iter_mut() {
-            if particle.is_changed() {
-                state.gather_edit(entity, &particle, step.gravity, dt, h);
-            }
+        for (entity, particle) in &particles.p1() {
+            state.gather_edit(entity, particle, step.gravity, dt, h);
+        }
+        if state.overrides_changed {
+            state.refresh_island_settings(inputs.overrides.iter());
         }
     }
-    // Pin targets move every step.
-    let state = &mut *state;
+    state.overrides_changed = false;
+    set_pin_targets(state, &inputs.pins, &inputs.transforms);
+    state.apply_wakes();
+    gather_colliders(state, &inputs.colliders, &inputs.transforms);
+    clock.gather = micros_since(clock.started);
+}
+
+/// Pins added to or removed from simulated particles since the last step, applied in place
+/// (or `state.dirty` set when that takes a rebuild).
+fn reconcile_pins(
+    state: &mut VerletState,
+    pins: &Query<(Entity, Ref<Pin>, Has<Particle>)>,
+    particles: &Query<ParticleData>,
+) {
+    let mut pinned = 0;
+    for (entity, ..) in pins.iter() {
+        let Some(slot) = state.slot(entity) else {
+            continue;
+        };
+        if state.pin_index(slot).is_none() && !state.add_pin(slot) {
+            state.dirty = true;
+            return;
+        }
+        pinned += 1;
+    }
+    if pinned == state.solver.pins.len() {
+        return;
+    }
+    // A `Pin` was removed: release its particle.
+    for index in (0..state.solver.pins.len()).rev() {
+        let slot = state.solver.pins.particle[index] as usize;
+        let entity = state.particle_entities[slot];
+        if pins.contains(entity) {
+            continue;
+        }
+        let Ok((_, particle, ..)) = particles.get(entity) else {
+            continue;
+        };
+        let (w, _) = state.material(entity, particle);
+        if !state.remove_pin(index, w) {
+            state.dirty = true;
+            return;
+        }
+    }
+}
+
+/// Changed sticks and angle constraints: parameters apply in place (or `state.dirty` is set
+/// when the change takes a rebuild), and their islands wake.
+fn edit_constraints(
+    state: &mut VerletState,
+    sticks: &mut Query<(Entity, &mut Stick), Changed<Stick>>,
+    angles: &mut Query<(Entity, &mut AngleConstraint), Changed<AngleConstraint>>,
+) {
+    for (entity, mut stick) in sticks.iter_mut() {
+        let stick = stick.bypass_change_detection();
+        state.wake_entities.extend([stick.a, stick.b]);
+        if !state.dirty && !state.edit_stick(entity, stick) {
+            state.dirty = true;
+        }
+    }
+    for (entity, mut angle) in angles.iter_mut() {
+        let angle = angle.bypass_change_detection();
+        state.wake_entities.extend([angle.a, angle.b, angle.c]);
+        if !state.dirty && !state.edit_angle(entity, angle) {
+            state.dirty = true;
+        }
+    }
+}
+
+/// Pin targets move every step; an edited pin wakes its island.
+fn set_pin_targets(
+    state: &mut VerletState,
+    pins: &Query<(Entity, Ref<Pin>, Has<Particle>)>,
+    transforms: &TransformHelper,
+) {
     for (entity, pin, is_particle) in pins.iter() {
         let Some(slot) = state.slot(entity) else {
             // (A particle left out for a bad position has been warned about already.)
@@ -224,21 +348,41 @@ pub(crate) fn prepare(
         let Some(index) = state.pin_index(slot) else {
             continue;
         };
-        if let Some(target) = state.pin_target(entity, pin, &transforms) {
+        if pin.is_changed() {
+            state.wake_entities.push(entity);
+        }
+        if let Some(target) = state.pin_target(entity, &pin, transforms) {
             state.solver.pins.set_target(index, target);
         }
     }
+}
+
+/// The colliders, placed by their entities' up-to-date `GlobalTransform`.
+fn gather_colliders(
+    state: &mut VerletState,
+    colliders: &Query<(Entity, &VerletCollider)>,
+    transforms: &TransformHelper,
+) {
     state.solver.colliders.clear();
-    for (entity, collider, transform) in colliders.iter() {
-        let translation = transform.map_or(Vec3::ZERO, |t| t.translation);
-        match collider.to_core(translation) {
+    for (entity, collider) in colliders.iter() {
+        let global = transforms
+            .compute_global_transform(entity)
+            .unwrap_or_default();
+        let (scale, rotation, translation) = global.to_scale_rotation_translation();
+        if matches!(collider.shape, ColliderShape::Bounds { .. })
+            && !rotation.abs_diff_eq(Quat::IDENTITY, 1e-6)
+        {
+            state.warn(entity, Problem::Collider, || {
+                "VerletCollider bounds on a rotated entity: boxes are axis-aligned, the rotation is ignored".to_string()
+            });
+        }
+        match collider.to_core(scale, rotation, translation) {
             Ok(core) => state.solver.colliders.push(core),
             Err(reason) => state.warn(entity, Problem::Collider, || {
                 format!("VerletCollider ignored: {reason}")
             }),
         }
     }
-    clock.gather = micros_since(clock.started);
 }
 
 /// Microseconds since `start` (0 without one).
@@ -246,32 +390,55 @@ fn micros_since(start: Option<Instant>) -> f32 {
     start.map_or(0.0, |start| start.elapsed().as_secs_f32() * 1e6)
 }
 
-/// Runs the [`VerletSubsteps`] schedule once per global substep (see
-/// [`GlobalSubstep`]).
+/// Runs one fixed step: the [`VerletSchedule`] (from the plugin's schedule).
+pub(crate) fn run_step(world: &mut World) {
+    world.run_schedule(VerletSchedule);
+}
+
+/// Runs the [`VerletSubsteps`] schedule once per global substep (see [`GlobalSubstep`]). While
+/// it holds only the plugin's three systems, their work is done here directly, which saves
+/// running a schedule per substep.
 pub(crate) fn run_substeps(world: &mut World) {
-    let step = {
+    let (step, parallel) = {
         let config = world.resource::<VerletConfig>();
         let gravity = world.resource::<Gravity>();
         let time = world.resource::<Time>();
-        step_config(config, gravity, time)
+        (step_config(config, gravity, time), config.parallel)
     };
     if step.timestep <= 0.0 {
         return;
     }
     let started = Instant::now();
+    let custom = world
+        .get_resource::<Schedules>()
+        .and_then(|schedules| schedules.get(VerletSubsteps))
+        .is_some_and(|schedule| schedule.systems_len() != PLUGIN_SUBSTEP_SYSTEMS);
     let count = world.resource_mut::<VerletState>().solver.begin_step(&step);
     for index in 1..=count {
-        world.resource_mut::<VerletState>().substep = Some(GlobalSubstep {
+        let substep = GlobalSubstep {
             config: step,
             index,
             count,
             plain: false,
-        });
-        world.run_schedule(VerletSubsteps);
+        };
+        if custom {
+            world.resource_mut::<VerletState>().substep = Some(substep);
+            world.run_schedule(VerletSubsteps);
+        } else {
+            let solver = &mut world.resource_mut::<VerletState>().into_inner().solver;
+            with_executor(parallel, |executor| {
+                solver.integrate_substep(&substep, executor);
+                solver.relax_substep(&substep, executor);
+                solver.constrain_substep(&substep, executor);
+            });
+        }
     }
     world.resource_mut::<VerletState>().substep = None;
     world.resource_mut::<StepClock>().solve = micros_since(Some(started));
 }
+
+/// The systems the plugin adds to [`VerletSubsteps`] (integrate, relax, constrain).
+const PLUGIN_SUBSTEP_SYSTEMS: usize = 3;
 
 /// Substep phase 1: Verlet integration and kinematic pins.
 pub(crate) fn integrate(mut state: ResMut<VerletState>, config: Res<VerletConfig>) {
@@ -308,11 +475,14 @@ pub(crate) fn tear(
     mut state: ResMut<VerletState>,
     config: Res<VerletConfig>,
     mut stats: ResMut<VerletStats>,
+    mut clock: ResMut<StepClock>,
     mut messages: MessageWriter<StickTorn>,
     mut commands: Commands,
 ) {
     let state = &mut *state;
+    let started = Instant::now();
     let torn = state.solver.finish_step();
+    clock.solve += micros_since(Some(started));
     if torn == 0 {
         return;
     }

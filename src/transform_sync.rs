@@ -1,9 +1,13 @@
 //! Attach sprites and meshes to the simulation: copy interpolated particle and stick poses into
 //! `Transform`s every frame.
+//!
+//! A particle entity that has a `Transform` gets its translation written every frame,
+//! interpolated between fixed steps (as avian writes its bodies' `Transform`s), so
+//! `(Particle, Sprite)` or `(Particle, Mesh3d)` — both require a `Transform` — just works.
+//! Particles without a `Transform` cost nothing here: the query matches none of them.
 
-use crate::Particle;
+use crate::{Particle, VerletConfig};
 use bevy::prelude::*;
-use bevy::transform::TransformSystems;
 
 /// Makes an entity's `Transform` follow a particle (interpolated between fixed steps).
 ///
@@ -46,16 +50,31 @@ pub struct FollowStick {
 pub(crate) fn plugin(app: &mut App) {
     app.register_type::<FollowParticle>()
         .register_type::<FollowStick>()
-        .add_systems(PostUpdate, follow.before(TransformSystems::Propagate));
+        .add_systems(
+            RunFixedMainLoop,
+            follow.in_set(RunFixedMainLoopSystems::AfterFixedMainLoop),
+        );
 }
+
+/// Particles whose `Transform` is synced: not followers themselves.
+type NotFollowing = (Without<FollowParticle>, Without<FollowStick>);
 
 fn follow(
     time: Res<Time<Fixed>>,
+    config: Res<VerletConfig>,
     particles: Query<&Particle>,
+    mut synced: Query<(&Particle, &mut Transform), NotFollowing>,
     mut followers: Query<(&FollowParticle, &mut Transform), Without<FollowStick>>,
     mut sticks: Query<(&FollowStick, &mut Transform), Without<FollowParticle>>,
 ) {
-    let fraction = time.overstep_fraction();
+    let fraction = config.render_fraction(&time);
+    for (particle, mut transform) in &mut synced {
+        // (Written only when it changes: a resting particle does not re-propagate.)
+        let translation = particle.interpolated(fraction);
+        if transform.translation != translation {
+            transform.translation = translation;
+        }
+    }
     for (follow, mut transform) in &mut followers {
         if let Ok(particle) = particles.get(follow.0) {
             transform.translation = particle.interpolated(fraction);

@@ -229,3 +229,56 @@ fn double_pendulum_keeps_its_energy() {
         }
     }
 }
+
+/// One-sided and compliant sticks in a line. A slack rope (`AtMost`) does not hold its end: the
+/// end falls freely until the rope is taut; a strut (`AtLeast`) lets a hanging bob fall;
+/// a compliant stick (α = 0.01 m/N) under a 1 kg bob hangs stretched by α·m·g = 9.81 cm, the
+/// static XPBD answer, to 10⁻⁶.
+#[test]
+fn one_sided_and_compliant_sticks_in_lines() {
+    let config = config(0.0, true);
+    let hang = |kind: StickKind, compliance: f64, bob: DVec3| {
+        let mut solver = Solver::default();
+        let pin = solver.add_particle(DVec3::ZERO, 0.0);
+        solver.pin(pin, DVec3::ZERO);
+        let b = solver.add_particle(bob, 1.0);
+        solver
+            .sticks
+            .push([pin, b], 1.0, compliance, kind, f64::INFINITY, 0);
+        solver.organize();
+        assert_eq!(solver.islands.list[0].method, Method::Lines);
+        solver
+    };
+    // Slack rope: the end starts 0.1 m below the pin and falls freely for 0.25 s (0.31 m; from
+    // rest, Verlet falls g·h²·n(n+1)/2 in n substeps).
+    let mut rope = hang(StickKind::AtMost, 0.0, DVec3::new(0.0, -0.1, 0.0));
+    for _ in 0..16 {
+        rope.step(&config);
+    }
+    let fall = -0.1 - rope.particles.position[1].y;
+    let (h, n) = (config.substep(), 128.0);
+    assert!(
+        (fall - G * h * h * n * (n + 1.0) / 2.0).abs() < 1e-9,
+        "fell {fall}"
+    );
+    // Strut: the bob hanging 1 m below falls through.
+    let mut strut = hang(StickKind::AtLeast, 0.0, DVec3::NEG_Y);
+    for _ in 0..32 {
+        strut.step(&config);
+    }
+    assert!(
+        strut.particles.position[1].y < -1.5,
+        "the strut held its bob"
+    );
+    // Compliant stick, damped to rest.
+    let mut soft = hang(StickKind::Equal, 0.01, DVec3::NEG_Y);
+    let damped = StepConfig {
+        damping: 5.0,
+        ..config
+    };
+    for _ in 0..64 * 10 {
+        soft.step(&damped);
+    }
+    let stretch = soft.particles.position[1].length() - 1.0;
+    assert!((stretch - 0.01 * G).abs() < 1e-6, "stretch {stretch}");
+}

@@ -672,11 +672,11 @@ fn app_despawning(when: When) -> App {
     let system = despawn_planned;
     match when {
         When::BeforePrepare => {
-            app.add_systems(FixedUpdate, system.before(VerletSystems::Prepare));
+            app.add_systems(VerletSchedule, system.before(VerletSystems::Prepare));
         }
         When::BeforeSubsteps => {
             app.add_systems(
-                FixedUpdate,
+                VerletSchedule,
                 system
                     .after(VerletSystems::Prepare)
                     .before(VerletSystems::Substeps),
@@ -684,7 +684,7 @@ fn app_despawning(when: When) -> App {
         }
         When::BeforeTear => {
             app.add_systems(
-                FixedUpdate,
+                VerletSchedule,
                 system
                     .after(VerletSystems::Substeps)
                     .before(VerletSystems::Tear),
@@ -692,20 +692,20 @@ fn app_despawning(when: When) -> App {
         }
         When::BeforeWriteback => {
             app.add_systems(
-                FixedUpdate,
+                VerletSchedule,
                 system
                     .after(VerletSystems::Tear)
                     .before(VerletSystems::Writeback),
             );
         }
         When::AfterWriteback => {
-            app.add_systems(FixedUpdate, system.after(VerletSystems::Writeback));
+            app.add_systems(VerletSchedule, system.after(VerletSystems::Writeback));
         }
     }
     app
 }
 
-/// Despawning a rope particle, a stick, or a whole cloth from a `FixedUpdate` system at every
+/// Despawning a rope particle, a stick, or a whole cloth from a `VerletSchedule` system at every
 /// point of the fixed step: no panic, no NaN, and from the next step on the solver's tables
 /// match the components exactly.
 #[test]
@@ -1106,7 +1106,7 @@ fn with_previous(position: Vec3, previous: Vec3) -> Particle {
 #[test]
 fn bad_input_warns_once_and_never_spreads_nan() {
     let mut app = app();
-    app.edit_schedule(FixedUpdate, |schedule| {
+    app.edit_schedule(FixedPostUpdate, |schedule| {
         schedule.set_executor(SingleThreadedExecutor::new());
     });
     let nan = f32::NAN;

@@ -305,11 +305,14 @@ impl LineSolve<'_, '_> {
                 predicted = predicted.max((length - rest).abs() * inverse_rest);
                 shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
                 v.start.set(line.offset + j, start);
-                // (The projection starts from the prediction: it stays a pure projection.)
-                let warm = if self.shake {
-                    v.warm.get(line.offset + j)
-                } else {
-                    0.0
+                // (The projection starts from the prediction: it stays a pure projection. A
+                // one-sided stick is warm-started only in the direction it can act.)
+                let warm = match kind {
+                    _ if !self.shake => 0.0,
+                    StickKind::Equal => v.warm.get(line.offset + j),
+                    StickKind::AtMost => v.warm.get(line.offset + j).min(0.0),
+                    StickKind::AtLeast => v.warm.get(line.offset + j).max(0.0),
+                    StickKind::Torn => 0.0,
                 };
                 self.lambda.set(s, warm);
                 after = start * warm;
@@ -404,7 +407,7 @@ impl LineSolve<'_, '_> {
     }
 
     /// Forward traversal: each stick evaluated at the current iterate and its row eliminated
-    /// (Thomas). Returns the largest `|C|/L` of the sticks in the system.
+    /// (Thomas). Returns the largest `|C + α̃λ|/L` of the sticks in the system.
     fn forward(&self, line: &LineRef) -> f64 {
         let v = self.scratch;
         let shake = v.mode.get(line.offset) == LineMode::Shake;
@@ -432,11 +435,14 @@ impl LineSolve<'_, '_> {
             } else {
                 let s = line.sticks[k] as usize;
                 let rest = self.sticks.rest_length[s];
-                worst = worst.max(row.c.abs() / rest.max(1e-12));
                 let wp = self.inverse_mass[line.particles[k] as usize];
                 let wq = self.inverse_mass[line.particles[k + 1] as usize];
                 let n = row.normal;
                 let alpha = self.sticks.compliance[s] * self.inv_h2;
+                let lambda = self.lambda.get(s);
+                // The XPBD residual: a compliant stick is solved when C = −α̃λ, not C = 0.
+                let residual = row.c + alpha * lambda;
+                worst = worst.max(residual.abs() / rest.max(1e-12));
                 let diagonal = (wp + wq) * n.dot(r) * (1.0 + REGULARISATION) + alpha;
                 // (An inactive neighbour has an eliminated row of zeros and Δλ = 0, so its
                 // coupling drops out by itself.)
@@ -444,7 +450,7 @@ impl LineSolve<'_, '_> {
                 let up = next
                     .as_ref()
                     .map_or(0.0, |next| -wq * n.dot(direction(k + 1, next)));
-                let rhs = -(row.c + alpha * self.lambda.get(s));
+                let rhs = -residual;
                 let inverse = 1.0 / (diagonal - lower * upper_prev);
                 upper_prev = up * inverse;
                 rhs_prev = (rhs - lower * rhs_prev) * inverse;
