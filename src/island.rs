@@ -1,4 +1,4 @@
-//! [`IslandOverride`]: per-island substeps and iterations.
+//! [`IslandOverride`]: per-island substeps, iterations and solve method.
 
 use bevy::prelude::*;
 
@@ -9,6 +9,11 @@ use bevy::prelude::*;
 ///
 /// Islands advance in lockstep: each fixed step runs as many global substeps as the most
 /// demanding awake island needs, and every island takes its own count of them, evenly spread.
+///
+/// [`IslandOverride::with_method`] also picks how the island is solved (see [`SolveMethod`]):
+/// a cloth hanging from a row of pins is solved exactly by lines at a single substep, for less
+/// than the default 8 sweeps cost (the crate README, "Solvers"). Changing the method rebuilds the
+/// topology.
 ///
 /// ```
 /// use bevy::prelude::*;
@@ -21,7 +26,20 @@ use bevy::prelude::*;
 /// # bevy::ecs::system::assert_is_system(spawn);
 /// ```
 ///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::prelude::*;
+/// fn spawn(mut commands: Commands) {
+///     let cloth = ClothBuilder::new(Vec3::ZERO, 30, 30, 0.05).pin_top_row(1).spawn(&mut commands);
+///     // This cloth alone: 1 substep, its rows and columns solved exactly.
+///     let exact = IslandOverride::new(1, 1).with_method(SolveMethod::Lines);
+///     commands.entity(cloth.particles[0]).insert(exact);
+/// }
+/// # bevy::ecs::system::assert_is_system(spawn);
+/// ```
+///
 /// [`VerletConfig`]: crate::VerletConfig
+/// [`SolveMethod`]: crate::SolveMethod
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
 #[reflect(Component, Debug, Clone)]
 pub struct IslandOverride {
@@ -29,14 +47,25 @@ pub struct IslandOverride {
     pub substeps: u32,
     /// Relaxation iterations per substep (values below 1 count as 1).
     pub iterations: u32,
+    /// How the island is solved (`None`: as [`VerletConfig::method`](crate::VerletConfig) says).
+    pub method: Option<crate::SolveMethod>,
 }
 
 impl IslandOverride {
-    /// `substeps` × `iterations`.
+    /// `substeps` × `iterations`, solved as the config says.
     pub fn new(substeps: u32, iterations: u32) -> Self {
         Self {
             substeps,
             iterations,
+            method: None,
+        }
+    }
+
+    /// The same override, solving the island by `method`.
+    pub fn with_method(self, method: crate::SolveMethod) -> Self {
+        Self {
+            method: Some(method),
+            ..self
         }
     }
 }

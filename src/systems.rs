@@ -234,6 +234,13 @@ pub(crate) fn prepare(
         state.solver.method = inputs.config.method.core();
         state.dirty = true;
     }
+    // Lines are laid out by a rebuild: an override that picks or dropped a method needs one.
+    if state.overrides_changed
+        && (!state.solver.island_methods.is_empty()
+            || inputs.overrides.iter().any(|(_, o)| o.method.is_some()))
+    {
+        state.dirty = true;
+    }
     if !state.dirty {
         reconcile_pins(state, &inputs.pins, &particles.p0());
     }

@@ -198,7 +198,7 @@ fn pendulum_keeps_its_period_and_energy() {
         );
         assert!(energy_projection < 0.9, "the projection damps");
         assert!(period.abs() < 1e-3, "period error {period}");
-        assert!(energy >= 0.99 && energy <= 1.01, "energy {energy}");
+        assert!((0.99..=1.01).contains(&energy), "energy {energy}");
     }
 }
 

@@ -568,6 +568,7 @@ impl Solver {
         self.angles.particles.iter_mut().flatten().for_each(remap);
         self.pins.particle.iter_mut().for_each(remap);
         self.island_settings.iter_mut().for_each(|(i, _)| remap(i));
+        self.island_methods.iter_mut().for_each(|(i, _)| remap(i));
     }
 
     fn permute_sticks(&mut self, from: &[u32]) {

@@ -117,8 +117,8 @@ pub(crate) struct CoverScratch {
     next: Vec<[u32; 2]>,
     /// Sticks already placed in a line.
     used: Vec<bool>,
-    /// Group each particle was last used in (`u32::MAX`: none).
-    particle_group: Vec<u32>,
+    /// The groups (bits 0–63) each particle is in.
+    particle_groups: Vec<u64>,
     /// Lines of the island being covered, before grouping.
     pending: Vec<Line>,
     /// Incident sticks of one particle.
@@ -272,7 +272,10 @@ fn trace(set: &mut LineSet, scratch: &mut CoverScratch, sticks: &Sticks, first: 
     }
 }
 
-/// Sorts the pending lines into groups that share no particle and appends them to `set`.
+/// Sorts the pending lines into groups that share no particle and appends them to `set`: each
+/// line goes into the lowest group none of its particles is in yet (a bitmask per particle, so
+/// a grid's rows form one group and its columns another whatever order they were traced in).
+/// Past 64 groups every further line gets a group of its own.
 fn group(
     set: &mut LineSet,
     scratch: &mut CoverScratch,
@@ -280,28 +283,28 @@ fn group(
 ) -> Range<u32> {
     let groups_start = set.groups.len() as u32;
     let end = island_particles.end as usize;
-    if scratch.particle_group.len() < end {
-        scratch.particle_group.resize(end, u32::MAX);
+    if scratch.particle_groups.len() < end {
+        scratch.particle_groups.resize(end, 0);
     }
     for p in island_particles {
-        scratch.particle_group[p as usize] = u32::MAX;
+        scratch.particle_groups[p as usize] = 0;
     }
     let mut group_of = Vec::with_capacity(scratch.pending.len());
     let mut groups = 0;
     for line in &scratch.pending {
         let members = &set.particles[range(&line.particles)];
-        let mut g = 0;
-        // The lowest group none of its particles is in yet (the particle remembers its latest
-        // group, and lines are placed in increasing group order per particle).
-        while members
+        let taken = members
             .iter()
-            .any(|&p| used_in(&scratch.particle_group, p, g))
-        {
-            g += 1;
-        }
-        for &p in members {
-            let slot = &mut scratch.particle_group[p as usize];
-            *slot = if *slot == u32::MAX { g } else { (*slot).max(g) };
+            .fold(0u64, |mask, &p| mask | scratch.particle_groups[p as usize]);
+        let g = if taken == u64::MAX {
+            groups.max(64)
+        } else {
+            (!taken).trailing_zeros()
+        };
+        if g < 64 {
+            for &p in members {
+                scratch.particle_groups[p as usize] |= 1 << g;
+            }
         }
         group_of.push(g);
         groups = groups.max(g + 1);
@@ -316,15 +319,11 @@ fn group(
         {
             set.lines.push(line.clone());
         }
-        set.groups.push(first..set.lines.len() as u32);
+        if set.lines.len() as u32 > first {
+            set.groups.push(first..set.lines.len() as u32);
+        }
     }
     groups_start..set.groups.len() as u32
-}
-
-/// `true` when particle `p` may already be in group `g` (its latest group is at least `g`).
-fn used_in(particle_group: &[u32], p: u32, g: u32) -> bool {
-    let latest = particle_group[p as usize];
-    latest != u32::MAX && latest >= g
 }
 
 /// The scratch [`Solver::organize`](super::Solver::organize) keeps for covering islands.

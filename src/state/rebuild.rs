@@ -126,6 +126,9 @@ impl VerletState {
             if let Some(island) = island {
                 let settings = island_settings(island);
                 self.solver.island_settings.push((slot, settings));
+                if let Some(method) = island.method {
+                    self.solver.island_methods.push((slot, method.core()));
+                }
             }
             if pin.is_some() {
                 // Starts from where the particle is; `prepare` then sets the target, so a new
