@@ -6,8 +6,8 @@ use bevy::prelude::*;
 /// The shape of a [`VerletCollider`], in the entity's local space: its up-to-date
 /// `GlobalTransform` (its `Transform` and its parents') places it, so a collider follows its
 /// entity, and scale sizes it (a sphere by the largest scale factor). Without a `Transform`
-/// the coordinates are world space. Boxes stay axis-aligned: a rotated box is warned about
-/// and its rotation ignored.
+/// the coordinates are world space. A rotated entity turns a box about its translation (an
+/// oriented box), a plane's normal, and a sphere's centre about it.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Debug, Clone)]
 pub enum ColliderShape {
@@ -109,9 +109,9 @@ impl VerletCollider {
         self
     }
 
-    /// The solver's collider, placed by an entity's scale, rotation and translation (a box's
-    /// rotation is ignored: the solver's boxes are axis-aligned); `None` (with the reason) if
-    /// any number is not usable.
+    /// The solver's collider, placed by an entity's scale, rotation and translation (a turned
+    /// box becomes an oriented box about the translation); `None` (with the reason) if any
+    /// number is not usable.
     pub(crate) fn to_core(
         self,
         scale: Vec3,
@@ -142,9 +142,18 @@ impl VerletCollider {
                     Vec3::select(s.is_nan_mask(), v, s)
                 };
                 let (a, b) = (scaled(min), scaled(max));
-                Shape::Inside {
-                    min: a.min(b).as_dvec3() + offset,
-                    max: a.max(b).as_dvec3() + offset,
+                if rotation.abs_diff_eq(Quat::IDENTITY, 1e-6) {
+                    Shape::Inside {
+                        min: a.min(b).as_dvec3() + offset,
+                        max: a.max(b).as_dvec3() + offset,
+                    }
+                } else {
+                    Shape::RotatedInside {
+                        pivot: offset,
+                        rotation: rotation.normalize().as_dquat(),
+                        min: a.min(b).as_dvec3(),
+                        max: a.max(b).as_dvec3(),
+                    }
                 }
             }
             ColliderShape::Plane { point, normal } => {

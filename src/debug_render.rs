@@ -242,6 +242,28 @@ fn draw_colliders(
                     gizmos.rect(isometry, (max - min).truncate(), color);
                 }
             }
+            Shape::RotatedInside {
+                pivot,
+                rotation,
+                min,
+                max,
+            } => {
+                let (min, max, rotation) = (min.as_vec3(), max.as_vec3(), rotation.as_quat());
+                if !(min.truncate().is_finite() && max.truncate().is_finite()) {
+                    continue;
+                }
+                let center = pivot.as_vec3() + rotation * ((min + max) * 0.5).with_z(0.0);
+                if min.z.is_finite() && max.z.is_finite() {
+                    let center = pivot.as_vec3() + rotation * ((min + max) * 0.5);
+                    let transform = Transform::from_translation(center)
+                        .with_rotation(rotation)
+                        .with_scale(max - min);
+                    gizmos.cube(transform, color);
+                } else {
+                    let isometry = Isometry3d::new(center, rotation);
+                    gizmos.rect(isometry, (max - min).truncate(), color);
+                }
+            }
             Shape::Sphere { center, radius } => {
                 let isometry = Isometry3d::from_translation(center.as_vec3());
                 if spheres {

@@ -5,8 +5,8 @@ use crate::executor::with_executor;
 use crate::solver::{GlobalSubstep, Sleep, StepConfig};
 use crate::state::{ParticleData, Problem, RebuildInputs, VerletState};
 use crate::{
-    AngleConstraint, ColliderShape, Gravity, IslandOverride, Particle, Pin, Sleeping, StickTorn,
-    Tethered, VerletCollider, VerletConfig, VerletStats,
+    AngleConstraint, Gravity, IslandOverride, Particle, Pin, Sleeping, StickTorn, Tethered,
+    VerletCollider, VerletConfig, VerletStats,
 };
 use crate::{Stick, VerletSchedule, VerletSubsteps};
 use bevy::ecs::entity::Entities;
@@ -376,13 +376,6 @@ fn gather_colliders(
             .compute_global_transform(entity)
             .unwrap_or_default();
         let (scale, rotation, translation) = global.to_scale_rotation_translation();
-        if matches!(collider.shape, ColliderShape::Bounds { .. })
-            && !rotation.abs_diff_eq(Quat::IDENTITY, 1e-6)
-        {
-            state.warn(entity, Problem::Collider, || {
-                "VerletCollider bounds on a rotated entity: boxes are axis-aligned, the rotation is ignored".to_string()
-            });
-        }
         match collider.to_core(scale, rotation, translation) {
             Ok(core) => state.solver.colliders.push(core),
             Err(reason) => state.warn(entity, Problem::Collider, || {

@@ -402,6 +402,38 @@ fn collider_scale_sizes_a_sphere() {
     assert!((x - 2.0).abs() < 1e-5, "pushed out to {x}");
 }
 
+/// A box collider on a rotated entity is an oriented box (before: the rotation was ignored with
+/// a warning, and a particle dropped in a 2 × 2 box turned 45° came to rest on the unturned
+/// box's floor at y = −1). Dropped from the centre it comes to rest in the diamond's lowest
+/// corner, √2 below the centre, and never leaves the diamond on the way.
+#[test]
+fn a_rotated_box_is_an_oriented_box() {
+    let mut app = app();
+    let p = spawn(&mut app, |c| {
+        c.spawn((
+            VerletCollider::new(ColliderShape::Bounds {
+                min: Vec3::new(-1.0, -1.0, f32::NEG_INFINITY),
+                max: Vec3::new(1.0, 1.0, f32::INFINITY),
+            }),
+            Transform::from_rotation(Quat::from_rotation_z(std::f32::consts::FRAC_PI_4)),
+        ));
+        c.spawn(Particle::new(Vec3::new(0.1, 0.0, 0.0))).id()
+    });
+    let mut outside: f32 = 0.0;
+    for _ in 0..64 * 4 {
+        step(&mut app, 1);
+        let x = position(&app, p);
+        // In the box's frame: |x'| + |y'| ≤ √2 · 1 for the turned square, i.e. |x| + |y| ≤ √2.
+        outside = outside.max(x.x.abs() + x.y.abs() - std::f32::consts::SQRT_2);
+    }
+    let x = position(&app, p);
+    assert!(outside < 1e-5, "left the diamond by {outside}");
+    assert!(
+        (x - Vec3::new(0.0, -std::f32::consts::SQRT_2, 0.0)).length() < 1e-3,
+        "rests at {x}"
+    );
+}
+
 /// A particle entity with a `Transform` gets it written every frame, interpolated; one without
 /// gets none (before: the `Transform` stayed at the origin).
 #[test]

@@ -1,5 +1,5 @@
-//! Constraints from the world: boxes (bounds), planes (ground) and spheres, with restitution and
-//! friction.
+//! Constraints from the world: boxes (bounds, axis-aligned or rotated), planes (ground) and
+//! spheres, with restitution and friction.
 //!
 //! A particle (with its radius) that penetrates a shape is projected to its surface (Jakobsen's
 //! "collision by projection"). Projection alone turns the penetration into a velocity change;
@@ -11,7 +11,7 @@
 
 use super::Particles;
 use super::shared::Shared;
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use std::ops::Range;
 
 /// The shape of a collider.
@@ -23,6 +23,35 @@ pub enum Shape {
         /// Lower corner.
         min: DVec3,
         /// Upper corner.
+        max: DVec3,
+    },
+    /// Keeps particles inside a rotated box: `min..=max` in the box's own frame, which is
+    /// placed at `pivot` and turned by `rotation` (a world point `x` is at
+    /// `rotation⁻¹·(x − pivot)` in that frame). Infinite bounds leave a local axis free.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{constrain, Collider, Particles, Shape};
+    /// use glam::{DQuat, DVec3};
+    /// // A 2 × 2 box turned 45° about Z: its corner (1, 1) is at (0, √2).
+    /// let shape = Shape::RotatedInside {
+    ///     pivot: DVec3::ZERO,
+    ///     rotation: DQuat::from_rotation_z(std::f64::consts::FRAC_PI_4),
+    ///     min: DVec3::new(-1.0, -1.0, f64::NEG_INFINITY),
+    ///     max: DVec3::new(1.0, 1.0, f64::INFINITY),
+    /// };
+    /// let mut p = Particles::default();
+    /// p.push(DVec3::new(0.0, 2.0, 0.0), DVec3::new(0.0, 2.0, 0.0), 1.0, 0.0, 0);
+    /// constrain(&mut p, &[Collider { shape, restitution: 0.0, friction: 0.0 }], 0.0);
+    /// assert!((p.position[0] - DVec3::new(0.0, 2f64.sqrt(), 0.0)).length() < 1e-12);
+    /// ```
+    RotatedInside {
+        /// Where the box's frame is.
+        pivot: DVec3,
+        /// How the box's frame is turned (a unit quaternion).
+        rotation: DQuat,
+        /// Lower corner, in the box's frame.
+        min: DVec3,
+        /// Upper corner, in the box's frame.
         max: DVec3,
     },
     /// Keeps particles on the side of the plane its unit `normal` points to.
@@ -74,8 +103,45 @@ fn contact(shape: &Shape, x: DVec3, radius: f64) -> Option<(DVec3, f64)> {
             };
             Some((normal, depth))
         }
-        Shape::Inside { .. } => None,
+        Shape::Inside { .. } | Shape::RotatedInside { .. } => None,
     }
+}
+
+/// Keeps a particle at `x` with substep velocity `velocity` inside the box `min..=max` of the
+/// frame `(pivot, rotation)` (`None`: world axes): the new position and velocity, or `None` if
+/// it is inside. Each local axis it was clamped on responds with that axis (turned to world) as
+/// the normal.
+fn keep_inside(
+    (x, velocity, radius): (DVec3, DVec3, f64),
+    frame: Option<(DVec3, DQuat)>,
+    (min, max): (DVec3, DVec3),
+    collider: &Collider,
+    resting_speed: f64,
+) -> Option<(DVec3, DVec3)> {
+    let to_world = |v: DVec3| frame.map_or(v, |(_, rotation)| rotation * v);
+    let local = frame.map_or(x, |(pivot, rotation)| rotation.inverse() * (x - pivot));
+    let lo = min + DVec3::splat(radius);
+    let hi = max - DVec3::splat(radius);
+    // A box smaller than the particle keeps it at the centre.
+    let clamped = local.max(lo).min(hi);
+    let clamped = DVec3::select(lo.cmpgt(hi), (min + max) * 0.5, clamped);
+    if clamped == local {
+        return None;
+    }
+    let mut velocity = velocity;
+    for axis in 0..3 {
+        if clamped[axis] != local[axis] {
+            let mut normal = DVec3::ZERO;
+            normal[axis] = if clamped[axis] > local[axis] {
+                1.0
+            } else {
+                -1.0
+            };
+            velocity = respond(velocity, to_world(normal), collider, resting_speed);
+        }
+    }
+    let world = frame.map_or(clamped, |(pivot, rotation)| pivot + rotation * clamped);
+    Some((world, velocity))
 }
 
 /// Surface response for a particle whose substep velocity (displacement per substep) before
@@ -152,21 +218,16 @@ pub(crate) fn constrain_range(
             let x = position.get(i);
             let velocity = x - previous.get(i);
             match collider.shape {
-                Shape::Inside { min, max } => {
-                    let lo = min + DVec3::splat(radius);
-                    let hi = max - DVec3::splat(radius);
-                    // A box smaller than the particle keeps it at the centre.
-                    let clamped = x.max(lo).min(hi);
-                    let clamped = DVec3::select(lo.cmpgt(hi), (min + max) * 0.5, clamped);
-                    if clamped != x {
-                        let mut velocity = velocity;
-                        for axis in 0..3 {
-                            if clamped[axis] != x[axis] {
-                                let mut normal = DVec3::ZERO;
-                                normal[axis] = if clamped[axis] > x[axis] { 1.0 } else { -1.0 };
-                                velocity = respond(velocity, normal, collider, resting_speed);
-                            }
-                        }
+                Shape::Inside { min, max } | Shape::RotatedInside { min, max, .. } => {
+                    let frame = match collider.shape {
+                        Shape::RotatedInside {
+                            pivot, rotation, ..
+                        } => Some((pivot, rotation)),
+                        _ => None,
+                    };
+                    let particle = (x, velocity, radius);
+                    let inside = keep_inside(particle, frame, (min, max), collider, resting_speed);
+                    if let Some((clamped, velocity)) = inside {
                         position.set(i, clamped);
                         previous.set(i, clamped - velocity);
                     }
