@@ -200,12 +200,63 @@ fn sleeping(options: &Options) {
     );
 }
 
+/// The cloth example's curtain (100 × 60, tethers, tear strain 1.5) with one bottom particle
+/// pinned and dragged 10 px down per step: the cost of the steps in which sticks tore against
+/// the quiet ones.
+fn tearing(options: &Options) {
+    let mut app = new_app(options);
+    app.insert_resource(Gravity::PIXELS);
+    let curtain = spawn(&mut app, scenes::curtain);
+    app.update();
+    app.update();
+    let (columns, rows, _) = scenes::CURTAIN;
+    let grip = curtain.particles[(rows - 1) * columns + columns / 2];
+    let start = app
+        .world()
+        .get::<Particle>(grip)
+        .expect("a particle")
+        .position;
+    app.world_mut().entity_mut(grip).insert(Pin::at(start));
+    app.update();
+    let rebuilds = app.world().resource::<VerletStats>().rebuilds;
+    let (mut quiet, mut tearing) = (Vec::new(), Vec::new());
+    for n in 1..=options.steps {
+        let target = start - Vec3::Y * 10.0 * n as f32;
+        app.world_mut()
+            .get_mut::<Pin>(grip)
+            .expect("a pin")
+            .set_position(target);
+        let torn = app.world().resource::<VerletStats>().torn_total;
+        let started = Instant::now();
+        app.update();
+        let micros = started.elapsed().as_secs_f64() * 1e6;
+        let tore = app.world().resource::<VerletStats>().torn_total > torn;
+        if tore { &mut tearing } else { &mut quiet }.push(micros);
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+    let stats = app.world().resource::<VerletStats>();
+    println!(
+        "tearing curtain, {} steps: {} quiet steps {:.0} µs (max {:.0}); {} steps with tears {:.0} µs (max {:.0}), ratio {:.2}×; {} sticks torn, {} rebuilds",
+        options.steps,
+        quiet.len(),
+        mean(&quiet),
+        max(&quiet),
+        tearing.len(),
+        mean(&tearing),
+        max(&tearing),
+        mean(&tearing) / mean(&quiet),
+        stats.torn_total,
+        stats.rebuilds - rebuilds,
+    );
+}
+
 fn main() {
     let options = match parse() {
         Ok(options) => options,
         Err(message) => {
             eprintln!(
-                "{message}\nusage: bench [cloth|rope|ragdolls|sleeping] [--cols N --rows N | --links N | --count N] \
+                "{message}\nusage: bench [cloth|rope|ragdolls|sleeping|tearing] [--cols N --rows N | --links N | --count N] \
                  [--steps N] [--iterations N] [--substeps N] [--threads N]"
             );
             std::process::exit(2);
@@ -213,6 +264,10 @@ fn main() {
     };
     if options.scene == "sleeping" {
         sleeping(&options);
+        return;
+    }
+    if options.scene == "tearing" {
+        tearing(&options);
         return;
     }
     let mut app = new_app(&options);

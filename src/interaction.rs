@@ -275,19 +275,12 @@ fn drag(
 fn cut(
     interaction: Res<VerletInteraction>,
     buttons: Res<ButtonInput<MouseButton>>,
-    state: Res<VerletState>,
+    mut state: ResMut<VerletState>,
     config: Res<VerletConfig>,
     mut messages: MessageWriter<StickTorn>,
     mut commands: Commands,
-    mut already_cut: Local<(u64, Vec<bool>)>,
+    mut hit: Local<Vec<usize>>,
 ) {
-    // Sticks cut since the last topology rebuild stay in the solver until then: cut each once.
-    let sticks = state.solver.sticks.ends.len();
-    if already_cut.0 != state.generation || already_cut.1.len() != sticks {
-        already_cut.0 = state.generation;
-        already_cut.1.clear();
-        already_cut.1.resize(sticks, false);
-    }
     if !buttons.pressed(interaction.cut_button) {
         return;
     }
@@ -304,8 +297,9 @@ fn cut(
     };
     let solver = &state.solver;
     let r2 = interaction.cut_radius * interaction.cut_radius;
+    hit.clear();
     for (i, &[a, b]) in solver.sticks.ends.iter().enumerate() {
-        if solver.sticks.kind[i] == StickKind::Torn || already_cut.1[i] {
+        if solver.sticks.kind[i] == StickKind::Torn {
             continue;
         }
         let (pa, pb) = (
@@ -315,15 +309,16 @@ fn cut(
         let (fa, fb) = (flat(pa), flat(pb));
         let segment = fb - fa;
         let t = (-fa.dot(segment) / segment.length_squared().max(1e-12)).clamp(0.0, 1.0);
-        if (fa + segment * t).length_squared() > r2 {
-            continue;
+        if (fa + segment * t).length_squared() <= r2 {
+            hit.push(i);
         }
-        let Some(message) = state.stick_torn(i) else {
-            continue;
-        };
-        already_cut.1[i] = true;
-        crate::systems::remove_stick(&mut commands, message.stick, config.despawn_torn_sticks);
-        messages.write(message);
+    }
+    // Cut in place, as a tear: no topology rebuild, and each stick once (it is torn now).
+    for &i in hit.iter() {
+        if let Some(message) = state.cut_stick(i) {
+            crate::systems::remove_stick(&mut commands, message.stick, config.despawn_torn_sticks);
+            messages.write(message);
+        }
     }
 }
 

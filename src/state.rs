@@ -10,7 +10,7 @@
 use crate::particle::NO_SLOT;
 use crate::solver::{GlobalSubstep, Particles, Solver, consistent_previous};
 use crate::{Particle, Pin, PinTarget};
-use bevy::ecs::entity::EntityHashMap;
+use bevy::ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy::platform::collections::HashSet;
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
@@ -83,8 +83,11 @@ pub struct VerletState {
     /// Particle positions at the start and end of the last fixed step, for interpolation.
     pub(crate) render_previous: Vec<Vec3>,
     pub(crate) render_current: Vec<Vec3>,
-    /// Sticks torn in the last step that the ECS has not removed yet.
+    /// Sticks torn (or cut) since the last rebuild: still in the solver's arrays, as torn.
     pub(crate) torn_pending: usize,
+    /// Stick entities torn or cut in place whose removal from the world is expected: their
+    /// removal is no topology change (the solver already skips them).
+    pub(crate) torn_entities: EntityHashSet,
     /// How many `Particle`, `Stick`, `AngleConstraint` and `Tethered` components existed when
     /// topology changes were last checked. A removal the removal buffers no longer hold (they
     /// are cleared every frame, and frames that run no fixed step are common above 64 fps)
@@ -122,6 +125,48 @@ impl VerletState {
             position: midpoint.as_vec3(),
             strain: solver.sticks.strain(index, &solver.particles) as f32,
         })
+    }
+
+    /// Cuts solver stick `index` in place, as a tear would (no topology rebuild: the stick
+    /// stays in the solver's arrays, torn, until the next rebuild), and returns its
+    /// [`StickTorn`](crate::StickTorn) message; `None` for an unknown or already torn stick.
+    /// The caller takes the stick out of the world (despawns it or removes its `Stick`); that
+    /// removal then costs no rebuild either.
+    ///
+    /// ```
+    /// use bevy::prelude::*;
+    /// use bevy_verlet_physics::prelude::*;
+    /// // Cut every stick whose midpoint is right of x = 0 (a knife).
+    /// fn knife(mut state: ResMut<VerletState>, mut commands: Commands) {
+    ///     let cut: Vec<usize> = (0..state.solver.sticks.len())
+    ///         .filter(|&i| state.stick_torn(i).is_some_and(|m| m.position.x > 0.0))
+    ///         .collect();
+    ///     for i in cut {
+    ///         if let Some(message) = state.cut_stick(i) {
+    ///             commands.entity(message.stick).despawn();
+    ///         }
+    ///     }
+    /// }
+    /// # bevy::ecs::system::assert_is_system(knife);
+    /// ```
+    pub fn cut_stick(&mut self, index: usize) -> Option<crate::StickTorn> {
+        let message = self.stick_torn(index)?;
+        if !self.solver.cut(index) {
+            return None;
+        }
+        self.torn_pending += 1;
+        self.release_torn(index);
+        Some(message)
+    }
+
+    /// Forgets the entity of solver stick `index`, which the solver has torn: its removal from
+    /// the world is expected and needs no rebuild.
+    pub(crate) fn release_torn(&mut self, index: usize) {
+        if let Some(entity) = self.stick_entities.get_mut(index) {
+            self.stick_index.remove(entity);
+            self.torn_entities.insert(*entity);
+            *entity = Entity::PLACEHOLDER;
+        }
     }
 
     /// Solver slot of a particle entity (valid until the next topology change).

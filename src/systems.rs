@@ -61,11 +61,20 @@ pub(crate) fn detect_topology_changes(
         mut removed_tethers,
         mut removed_overrides,
     ) = removals;
-    // Drain every removal buffer (they are cleared each frame, paused or not).
-    let removed = removed_particles.read().count()
-        + removed_sticks.read().count()
-        + removed_angles.read().count();
     let state = &mut *state;
+    // Drain every removal buffer (they are cleared each frame, paused or not). Sticks the solver
+    // tore in place are expected to go and change nothing (their count is expected to drop).
+    let mut expected = 0;
+    let sticks_removed = removed_sticks
+        .read()
+        .filter(|entity| {
+            let torn = state.torn_entities.remove(entity);
+            expected += torn as usize;
+            !torn
+        })
+        .count();
+    state.component_counts[1] = state.component_counts[1].saturating_sub(expected);
+    let removed = removed_particles.read().count() + sticks_removed + removed_angles.read().count();
     // Tethers and island overrides wake the islands they touch (by entity: after any rebuild).
     let tethers_before = state.wake_entities.len();
     state.wake_entities.extend(removed_tethers.read());
@@ -488,8 +497,12 @@ pub(crate) fn tear(
     }
     state.torn_pending += torn;
     stats.torn_total += torn as u64;
-    for &index in &state.solver.torn {
-        if let Some(message) = state.stick_torn(index as usize) {
+    // Torn in place: the solver skips them from now on, and taking them out of the world
+    // costs no rebuild (see `detect_topology_changes`).
+    for k in 0..state.solver.torn.len() {
+        let index = state.solver.torn[k] as usize;
+        if let Some(message) = state.stick_torn(index) {
+            state.release_torn(index);
             remove_stick(&mut commands, message.stick, config.despawn_torn_sticks);
             messages.write(message);
         }

@@ -520,3 +520,85 @@ fn paused_drawing_stands_still() {
     let p = particle(&app, synced);
     assert_eq!(seen[0][0], p.position, "shows the last step");
 }
+
+/// Tearing and cutting cost no topology rebuild: a 30 × 20 cloth (tear strain 0.3) pinned along
+/// its top row, the left half of its bottom row gripped and dragged 5 cm down per step for 1 s, tears in place
+/// (147 sticks; before: every step with a tear rebuilt the whole topology — islands, colours,
+/// tethers — 27 rebuilds in the bench's 27 tearing steps, `bench -- tearing`); a
+/// cut through `VerletState::cut_stick` does not rebuild either. Torn sticks leave the world
+/// (despawned), `VerletStats::sticks` counts the rest, and the bookkeeping stays consistent;
+/// the next real rebuild drops the torn sticks from the solver.
+#[test]
+fn tearing_and_cutting_cost_no_rebuild() {
+    let mut app = app();
+    app.insert_resource(VerletConfig {
+        damping: 1.0,
+        ..default()
+    });
+    let cloth = spawn(&mut app, |c| {
+        ClothBuilder::new(Vec3::ZERO, 30, 20, 0.05)
+            .pin_top_row(1)
+            .tear_strain(0.3)
+            .spawn(c)
+    });
+    step(&mut app, 2);
+    let grip: Vec<(Entity, Vec3)> = (0..15)
+        .map(|c| {
+            let entity = cloth.particles[19 * 30 + c];
+            (entity, position(&app, entity))
+        })
+        .collect();
+    for &(entity, at) in &grip {
+        app.world_mut().entity_mut(entity).insert(Pin::at(at));
+    }
+    step(&mut app, 1);
+    let before = rebuilds(&app);
+    for n in 1..=64 {
+        for &(entity, at) in &grip {
+            let target = at - Vec3::Y * 0.05 * n as f32;
+            app.world_mut()
+                .get_mut::<Pin>(entity)
+                .unwrap()
+                .set_position(target);
+        }
+        step(&mut app, 1);
+    }
+    let stats = app.world().resource::<VerletStats>().clone();
+    println!("tore {} sticks in {} steps", stats.torn_total, 64);
+    assert!(stats.torn_total > 10, "tore {}", stats.torn_total);
+    assert_eq!(rebuilds(&app), before, "tears rebuilt the topology");
+    let live = app.world_mut().query::<&Stick>().iter(app.world()).count();
+    assert_eq!(stats.sticks, live, "stats count the sticks left");
+    check_consistency(&mut app).unwrap();
+    // A cut, as the interaction plugin's right-drag does.
+    let cut = app
+        .world_mut()
+        .resource_scope(|world, mut state: Mut<VerletState>| {
+            let index = (0..state.solver.sticks.len())
+                .find(|&i| state.solver.sticks.kind[i] != StickKind::Torn)
+                .unwrap();
+            let message = state.cut_stick(index).unwrap();
+            world.entity_mut(message.stick).despawn();
+            message
+        });
+    step(&mut app, 1);
+    assert_eq!(rebuilds(&app), before, "a cut rebuilt the topology");
+    assert!(app.world().get_entity(cut.stick).is_err());
+    // A real topology change rebuilds, without the torn sticks.
+    spawn(&mut app, |c| {
+        c.spawn(Particle::new(Vec3::new(5.0, 0.0, 0.0))).id()
+    });
+    step(&mut app, 1);
+    assert_eq!(rebuilds(&app), before + 1);
+    let state = app.world().resource::<VerletState>();
+    let torn = state
+        .solver
+        .sticks
+        .kind
+        .iter()
+        .filter(|&&k| k == StickKind::Torn)
+        .count();
+    assert_eq!(torn, 0, "torn sticks dropped at the rebuild");
+    assert_eq!(state.solver.sticks.len(), live - 1);
+    check_consistency(&mut app).unwrap();
+}

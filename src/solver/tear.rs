@@ -51,3 +51,42 @@ pub fn tear(particles: &Particles, sticks: &mut Sticks, torn: &mut Vec<u32>) -> 
     }
     torn.len() - before
 }
+
+impl super::Solver {
+    /// Cuts stick `i` in place, as a tear would: it becomes [`StickKind::Torn`] (skipped by every
+    /// sweep and line), its island wakes, and tethers are rebuilt if there are any — no topology
+    /// rebuild. Returns `false` for an unknown or already torn stick.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Solver, StickKind};
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// solver.add_particle(DVec3::ZERO, 1.0);
+    /// solver.add_particle(DVec3::X, 1.0);
+    /// solver.sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// assert!(solver.cut(0));
+    /// assert_eq!(solver.sticks.kind[0], StickKind::Torn);
+    /// assert!(!solver.cut(0));
+    /// ```
+    pub fn cut(&mut self, i: usize) -> bool {
+        if self
+            .sticks
+            .kind
+            .get(i)
+            .is_none_or(|&k| k == StickKind::Torn)
+        {
+            return false;
+        }
+        self.sticks.kind[i] = StickKind::Torn;
+        self.sticks.tearable.retain(|&s| s as usize != i);
+        // Torn sticks must be skipped: no batch is known all-rigid any more.
+        for batch in &mut self.islands.batches {
+            batch.rigid = false;
+        }
+        self.wake_requests.push(self.sticks.ends[i][0]);
+        if !self.tethers.is_empty() {
+            self.rebuild_tethers();
+        }
+        true
+    }
+}
