@@ -6,6 +6,9 @@
 //!   bare reference loop (the same math on plain arrays, nothing else), on cloth grids of 32²,
 //!   128², 512² particles and a 10 000-link rope; plus two variants of the bare loop: `bare_lanes` (four independent sticks at a time,
 //!   lane arrays that LLVM vectorises) and `bare_2d` (2D positions).
+//! * `lines_step`: a full core step (8 × 1) of a 100-link rope hanging at rest and of a 64 × 64
+//!   cloth hanging from its top row, swept (`Method::Sweep`) against solved by lines
+//!   (`Method::Lines`, SHAKE) — the cost of exactness at the same substeps.
 //! * `parallel_step_10_iterations`: a full core step on one thread and on Bevy's compute pool.
 //! * `fixed_step_10_iterations`: a whole `app.update()` with the plugin against the core alone.
 
@@ -15,7 +18,7 @@ use bevy::time::TimeUpdateStrategy;
 use bevy_verlet_physics::TaskPoolExecutor;
 use bevy_verlet_physics::prelude::*;
 use bevy_verlet_physics::solver::{
-    GlobalSubstep, Serial, Solver, StepConfig, StickKind, relax_sticks,
+    GlobalSubstep, Method, Serial, Solver, StepConfig, StickKind, relax_sticks,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{DVec2, DVec3};
@@ -356,5 +359,44 @@ fn parallel(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, relax, parallel, ecs_step);
+/// A rope hanging straight down from its pin, at rest.
+fn hanging_rope(links: usize) -> Solver {
+    let mut solver = Solver::default();
+    for i in 0..=links {
+        solver.add_particle(DVec3::new(0.0, -(i as f64) * 0.01, 0.0), 1.0);
+    }
+    for i in 0..links as u32 {
+        solver
+            .sticks
+            .push([i, i + 1], 0.01, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    }
+    solver.pin(0, DVec3::ZERO);
+    solver
+}
+
+fn lines_step(c: &mut Criterion) {
+    let mut group = c.benchmark_group("lines_step");
+    group.measurement_time(Duration::from_secs(3));
+    let config = StepConfig::default();
+    for name in ["rope_100_hanging", "cloth_64_hanging"] {
+        for method in [Method::Sweep, Method::Lines] {
+            let mut solver = if name.starts_with("rope") {
+                hanging_rope(100)
+            } else {
+                cloth(64)
+            };
+            solver.method = method;
+            solver.organize();
+            // Settle first, so the measured steps are the steady state.
+            for _ in 0..64 {
+                solver.step(&config);
+            }
+            let id = BenchmarkId::new(format!("{method:?}").to_lowercase(), name);
+            group.bench_function(id, |b| b.iter(|| solver.step(black_box(&config))));
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, relax, lines_step, parallel, ecs_step);
 criterion_main!(benches);
