@@ -58,11 +58,11 @@ fn cloth(n: usize) -> Solver {
     solver
 }
 
-/// A rope of `links` links pinned at one end.
-fn rope(links: usize) -> Solver {
+/// A rope of `links` links pinned at one end, laid along `direction`.
+fn rope_along(links: usize, direction: DVec3) -> Solver {
     let mut solver = Solver::default();
     for i in 0..=links {
-        solver.add_particle(DVec3::new(i as f64 * 0.01, 0.0, 0.0), 1.0);
+        solver.add_particle(direction * (i as f64 * 0.01), 1.0);
     }
     for i in 0..links as u32 {
         solver
@@ -71,6 +71,11 @@ fn rope(links: usize) -> Solver {
     }
     solver.pin(0, DVec3::ZERO);
     solver
+}
+
+/// A rope of `links` links pinned at one end, horizontal.
+fn rope(links: usize) -> Solver {
+    rope_along(links, DVec3::X)
 }
 
 /// The bare reference: rigid PBD stick projection on plain arrays.
@@ -359,21 +364,6 @@ fn parallel(c: &mut Criterion) {
     group.finish();
 }
 
-/// A rope hanging straight down from its pin, at rest.
-fn hanging_rope(links: usize) -> Solver {
-    let mut solver = Solver::default();
-    for i in 0..=links {
-        solver.add_particle(DVec3::new(0.0, -(i as f64) * 0.01, 0.0), 1.0);
-    }
-    for i in 0..links as u32 {
-        solver
-            .sticks
-            .push([i, i + 1], 0.01, 0.0, StickKind::Equal, f64::INFINITY, 0);
-    }
-    solver.pin(0, DVec3::ZERO);
-    solver
-}
-
 fn lines_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("lines_step");
     group.measurement_time(Duration::from_secs(3));
@@ -381,7 +371,7 @@ fn lines_step(c: &mut Criterion) {
     for name in ["rope_100_hanging", "cloth_64_hanging"] {
         for method in [Method::Sweep, Method::Lines] {
             let mut solver = if name.starts_with("rope") {
-                hanging_rope(100)
+                rope_along(100, DVec3::NEG_Y)
             } else {
                 cloth(64)
             };

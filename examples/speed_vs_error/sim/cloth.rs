@@ -5,7 +5,10 @@
 //! largest stick strain, and the stretch of the bottom edge's drop.
 
 use super::measure::strain_stats;
-use super::{Column, Scene, Setting, Unit, add_pinned, add_rod, apply_tethers, run, steps_in};
+use super::{
+    Column, Scene, Setting, Unit, add_pinned, add_rod, apply_tethers, organize_in_place, run,
+    steps_in,
+};
 use bevy_verlet_physics::solver::{Solver, StepConfig};
 use glam::DVec3;
 
@@ -81,14 +84,7 @@ impl Scene for Cloth {
         apply_tethers(&mut solver, setting);
         // As the plugin does: one island, so particles keep their slots; the sticks are
         // reordered by colour (the cloth is large enough).
-        let reorder = solver.organize();
-        assert!(
-            reorder
-                .particles
-                .iter()
-                .enumerate()
-                .all(|(i, &p)| p as usize == i)
-        );
+        organize_in_place(&mut solver);
         (solver, setting.config(DVec3::new(0.0, -9.81, 0.0), DAMPING))
     }
 

@@ -175,10 +175,15 @@ pub fn step(
     });
 }
 
-/// Switches `solver` to `method` (organizing it, which must keep every particle where it is:
-/// the scenes measure particles by index).
+/// Switches `solver` to `method` (organizing it, see [`organize_in_place`]).
 pub fn use_method(solver: &mut Solver, method: Method) {
     solver.method = method;
+    organize_in_place(solver);
+}
+
+/// Organizes `solver` as the plugin does, which must keep every particle where it is: the
+/// scenes measure particles by index.
+pub fn organize_in_place(solver: &mut Solver) {
     let reorder = solver.organize();
     assert!(
         reorder
