@@ -20,10 +20,20 @@
 //! for s in 1..=S:
 //!     integrate   x' = x + (x − x*)·exp(−c·h) + g·h²,  x* = x      (movable particles)
 //!     pins        x = lerp(target_from, target_to, s/S)              (kinematic, w = 0)
-//!     relax × N   sticks (XPBD), angles (XPBD), tethers (one-sided)  Gauss–Seidel, in place
+//!     relax × N   sticks: lines solved exactly (chains, trees) or    Gauss–Seidel, in place
+//!                 swept (XPBD); angles (XPBD), tethers (one-sided)
 //!     constrain   boxes, planes, spheres: project out, restitution and friction
 //! tear            sticks whose post-solve strain exceeds their threshold
 //! ```
+//!
+//! # Solver 2: lines
+//!
+//! Gauss–Seidel carries a correction one or two sticks per sweep and a projection at the end of
+//! a step damps like backward Euler. Islands that are chains or trees are therefore covered by
+//! [`lines`] and each line is solved exactly per Newton pass ([`direct`]: a tridiagonal solve,
+//! Baraff 1996; Deul et al. 2018), correcting along the sticks' start-of-substep directions
+//! (SHAKE, Ryckaert et al. 1977), which keeps energy. [`Method`] (per solver, per island) picks
+//! lines or sweeps; [`Method::Auto`] picks by the island's shape in [`Solver::organize`].
 //!
 //! Pinned particles have inverse mass 0 (Jakobsen: "infinite mass"), so constraints move only the
 //! free end and two pins never fight. Everything is `f64`: see [`Particles`] for why.
