@@ -27,7 +27,7 @@ use super::tethers::relax_tether_range;
 use super::{Island, Solver, StepConfig, Substep, tear};
 use glam::DVec3;
 use std::ops::Range;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Global substep `index` of `count` in the fixed step configured by `config`.
 ///
@@ -276,11 +276,7 @@ impl Solver {
                     done += work(island, &substep);
                 }
             };
-            if jobs > 1 {
-                executor.run(jobs, &relax_group);
-            } else {
-                relax_group(0);
-            }
+            run_jobs(executor, jobs, &relax_group);
         }
         self.give_back(taken, islands);
     }
@@ -484,7 +480,16 @@ impl Solver {
                 }
             }
         };
+        // The job ignores its index (threads claim chunks from the counters), so an executor
+        // that runs it twice at once only adds a helper; one that never runs it is caught here.
         executor.run(executor.threads(), &job);
+        if let Some(last) = steps.checked_sub(1) {
+            let done = counters[2 * last + 1].load(Ordering::Acquire) as usize;
+            assert!(
+                done >= chunks_of(last % per_iteration),
+                "the Executor returned before running its jobs"
+            );
+        }
     }
 
     fn relax_sticks_of(&self, views: &Views, substep: &Substep, batch: &super::Batch) {
@@ -585,11 +590,38 @@ fn for_due_particles(
             f(part(range(&island.particles), job, jobs), &substep);
         }
     };
-    if jobs > 1 {
-        executor.run(jobs, &job);
-    } else {
-        job(0);
+    run_jobs(executor, jobs, &job);
+}
+
+/// Runs `job(0)`, …, `job(jobs − 1)` on `executor`, each exactly once *whatever the executor
+/// does*: [`Executor`] is a safe trait, so the solver does not trust the indices it passes.
+/// Every call the executor makes claims job indices from one atomic counter until none is
+/// left — an executor that runs a job twice (even at the same time), or runs job 0 only, still
+/// runs each index once, so two threads never work on the same particles. An executor that
+/// returns without calling the job at all panics (the work would be silently skipped).
+fn run_jobs(executor: &dyn Executor, jobs: usize, job: &(dyn Fn(usize) + Sync)) {
+    if jobs <= 1 {
+        (0..jobs).for_each(job);
+        return;
     }
+    let next = AtomicUsize::new(0);
+    let finished = AtomicUsize::new(0);
+    executor.run(jobs, &|_| {
+        loop {
+            let claimed = next.fetch_add(1, Ordering::Relaxed);
+            if claimed >= jobs {
+                break;
+            }
+            job(claimed);
+            // (Release: the caller sees the job's writes once it has seen the count.)
+            finished.fetch_add(1, Ordering::Release);
+        }
+    });
+    assert_eq!(
+        finished.load(Ordering::Acquire),
+        jobs,
+        "the Executor returned before running its jobs"
+    );
 }
 
 /// The islands that take a substep now, with their substep contexts.
