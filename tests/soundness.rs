@@ -2,6 +2,7 @@
 //! `Solver::organize` gives the serial result (or a clear panic), never two threads on one
 //! particle.
 
+use bevy_verlet_physics::solver::parallel::PARALLEL_CHUNK_STICKS;
 use bevy_verlet_physics::solver::{Executor, ScopedThreads, Serial, Solver, StepConfig, StickKind};
 use glam::DVec3;
 
@@ -145,4 +146,92 @@ fn an_executor_that_runs_jobs_twice_or_with_wrong_indices_gives_the_serial_resul
 fn an_executor_that_runs_nothing_panics() {
     let mut solver = scene();
     solver.step_with(&config(), &Lazy);
+}
+
+/// Two sticks of one colour batch, changed (through the public API) to share a particle. They
+/// are the first sticks of two chunks that two threads solve at the same time, in the second
+/// batch (by then both threads are running, waiting for each batch together).
+fn share_a_particle(solver: &mut Solver) {
+    let islands = &solver.islands;
+    let batch = islands
+        .batches
+        .iter()
+        .filter(|b| b.independent && b.sticks.len() > PARALLEL_CHUNK_STICKS)
+        .nth(1)
+        .expect("a large colour batch");
+    let first = batch.sticks.start as usize;
+    let second = first + PARALLEL_CHUNK_STICKS;
+    let [shared, _] = solver.sticks.ends()[first];
+    let [_, other] = solver.sticks.ends()[second];
+    solver.sticks.set_ends(second, [shared, other]);
+}
+
+#[test]
+fn sticks_changed_after_organize_step_as_serial_on_two_threads() {
+    let mut serial = scene();
+    assert!(serial.islands.batches.iter().any(|b| b.independent));
+    share_a_particle(&mut serial);
+    assert!(!serial.is_organized(), "the change must make the layout stale");
+    let mut threaded = serial.clone();
+    for _ in 0..10 {
+        serial.step_with(&config(), &Serial);
+        threaded.step_with(&config(), &ScopedThreads(2));
+    }
+    assert!(serial.particles.all_finite());
+    assert_eq!(bits(&serial), bits(&threaded));
+    // Organized again, the new topology is split across threads as before.
+    serial.organize();
+    threaded.organize();
+    assert!(threaded.islands.batches.iter().any(|b| b.independent));
+    for _ in 0..3 {
+        serial.step_with(&config(), &Serial);
+        threaded.step_with(&config(), &ScopedThreads(2));
+    }
+    assert_eq!(bits(&serial), bits(&threaded));
+}
+
+#[test]
+fn islands_of_another_topology_are_not_used() {
+    let mut serial = scene();
+    let islands = serial.islands.clone();
+    share_a_particle(&mut serial);
+    // Same sizes, other stick ends: the layout is refused, not trusted.
+    serial.islands = islands;
+    assert!(!serial.is_organized());
+    let mut threaded = serial.clone();
+    for _ in 0..5 {
+        serial.step_with(&config(), &Serial);
+        threaded.step_with(&config(), &ScopedThreads(2));
+    }
+    assert_eq!(bits(&serial), bits(&threaded));
+}
+
+#[test]
+fn a_change_between_substeps_is_noticed_by_the_next_phase() {
+    use bevy_verlet_physics::solver::GlobalSubstep;
+    let mut serial = scene();
+    let mut threaded = serial.clone();
+    for (solver, executor) in [
+        (&mut serial, &Serial as &dyn Executor),
+        (&mut threaded, &ScopedThreads(2)),
+    ] {
+        let config = config();
+        let count = solver.begin_step(&config);
+        for index in 1..=count {
+            let substep = GlobalSubstep {
+                config,
+                index,
+                count,
+                plain: false,
+            };
+            solver.integrate_substep(&substep, executor);
+            if index == 2 {
+                share_a_particle(solver);
+            }
+            solver.relax_substep(&substep, executor);
+            solver.constrain_substep(&substep, executor);
+        }
+        solver.finish_step();
+    }
+    assert_eq!(bits(&serial), bits(&threaded));
 }

@@ -19,6 +19,7 @@
 //! mass ratios with stick-held arms stayed bounded.
 
 use super::Particles;
+use super::islands::next_stamp;
 use super::shared::Shared;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
@@ -40,8 +41,9 @@ use std::ops::Range;
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Angles {
-    /// Particle indices `[a, b, c]`; the angle is measured at `b`.
-    pub particles: Vec<[u32; 3]>,
+    /// Particle indices `[a, b, c]`; the angle is measured at `b` (read with
+    /// [`Angles::particles`]: the solver's islands are built from them).
+    pub(crate) particles: Vec<[u32; 3]>,
     /// Rest angles in radians (signed when an axis is given).
     pub rest_angle: Vec<f64>,
     /// XPBD compliances (rad / (N·m); `0` = rigid).
@@ -50,6 +52,8 @@ pub struct Angles {
     pub axis: Vec<Option<DVec3>>,
     /// Accumulated XPBD multipliers of the current substep.
     pub lambda: Vec<f64>,
+    /// A stamp that changes with every change of `particles`.
+    pub(crate) stamp: u64,
 }
 
 impl Angles {
@@ -63,8 +67,21 @@ impl Angles {
         self.particles.is_empty()
     }
 
+    /// Particle indices `[a, b, c]` of every constraint (the angle is measured at `b`).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Angles;
+    /// let mut angles = Angles::default();
+    /// angles.push([0, 1, 2], 1.0, 0.0, None);
+    /// assert_eq!(angles.particles(), &[[0, 1, 2]]);
+    /// ```
+    pub fn particles(&self) -> &[[u32; 3]] {
+        &self.particles
+    }
+
     /// Removes every angle constraint.
     pub fn clear(&mut self) {
+        self.stamp = next_stamp();
         self.particles.clear();
         self.rest_angle.clear();
         self.compliance.clear();
@@ -80,6 +97,7 @@ impl Angles {
         compliance: f64,
         axis: Option<DVec3>,
     ) -> usize {
+        self.stamp = next_stamp();
         self.particles.push(particles);
         self.rest_angle.push(rest_angle);
         self.compliance.push(compliance);

@@ -74,7 +74,7 @@ pub use angles::{Angles, relax_angles};
 pub use colliders::{Collider, Shape, constrain};
 pub use colouring::Batch;
 pub use integrate::{consistent_previous, integrate};
-pub use islands::{Island, IslandSettings, Islands, Reorder, Sleep};
+pub use islands::{Island, IslandSettings, Islands, ReadOnly, Reorder, Sleep};
 pub use lines::{Line, LineSet, Method};
 pub use parallel::{Executor, ScopedThreads, Serial};
 pub use particles::Particles;
@@ -236,8 +236,8 @@ impl Solver {
         self.island_settings.clear();
         self.island_methods.clear();
         self.wake_requests.clear();
-        self.islands.list.clear();
-        self.islands.batches.clear();
+        self.islands.list.0.clear();
+        self.islands.batches.0.clear();
         self.islands.lines.clear();
     }
 
@@ -260,10 +260,16 @@ impl Solver {
 
     /// Recomputes the tethers of the particles flagged in [`Solver::tethered`].
     pub fn rebuild_tethers(&mut self) {
+        // Tethers rebuilt from the solver's own sticks join particles of one island: islands
+        // that matched the topology still do.
+        let organized = self.is_organized();
         self.tethered.resize(self.particles.len(), false);
         self.tethers
             .rebuild(&self.particles, &self.sticks, &self.pins, &self.tethered);
         self.assign_tether_ranges();
+        if organized {
+            self.islands.stamps = self.stamps();
+        }
     }
 
     /// How many Newton passes the line solves have taken since the solver was made (a cost

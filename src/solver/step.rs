@@ -143,9 +143,7 @@ impl Solver {
     /// changed since [`Solver::organize`]), wakes islands that were touched, and returns how many
     /// global substeps the step takes (see [`GlobalSubstep`]).
     pub fn begin_step(&mut self, config: &StepConfig) -> u32 {
-        if !self.is_organized() {
-            self.use_one_island();
-        }
+        self.check_layout();
         let changed = self.last_config != Some(*config) || self.colliders != self.last_colliders;
         if changed || config.sleep.is_none() {
             self.wake_all();
@@ -154,7 +152,7 @@ impl Solver {
         self.last_colliders.clone_from(&self.colliders);
         for i in 0..self.wake_requests.len() {
             if let Some(k) = self.islands.of_particle(self.wake_requests[i]) {
-                let island = &mut self.islands.list[k];
+                let island = &mut self.islands.list.0[k];
                 island.asleep = false;
                 island.calm_time = 0.0;
             }
@@ -162,7 +160,7 @@ impl Solver {
         self.wake_requests.clear();
         let pins = &self.pins;
         let mut count = 1;
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             if island.asleep && pins.moving(range(&island.pins)) {
                 island.asleep = false;
                 island.calm_time = 0.0;
@@ -181,9 +179,37 @@ impl Solver {
         self.wake_requests.push(slot);
     }
 
+    /// Puts island `island` to sleep (at rest: its previous positions become its positions) or
+    /// wakes it; out-of-range indices are ignored.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Solver;
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// solver.add_particle(DVec3::ZERO, 1.0);
+    /// solver.organize();
+    /// solver.set_asleep(0, true);
+    /// assert_eq!(solver.sleeping_islands(), 1);
+    /// ```
+    pub fn set_asleep(&mut self, island: usize, asleep: bool) {
+        let Some(island) = self.islands.list.0.get_mut(island) else {
+            return;
+        };
+        island.asleep = asleep;
+        island.calm_time = 0.0;
+        if asleep {
+            let p = &mut self.particles;
+            for i in range(&island.particles) {
+                if let (Some(&x), Some(previous)) = (p.position.get(i), p.previous.get_mut(i)) {
+                    *previous = x;
+                }
+            }
+        }
+    }
+
     /// Wakes every island.
     pub fn wake_all(&mut self) {
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             island.asleep = false;
             island.calm_time = 0.0;
         }
@@ -197,6 +223,7 @@ impl Solver {
     /// First phase of a substep: Verlet integration, kinematic pins placed on their interpolated
     /// targets, XPBD multipliers reset.
     pub fn integrate_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
+        self.check_layout();
         let (mut taken, islands) = self.take();
         {
             let views = views(&mut taken);
@@ -232,6 +259,7 @@ impl Solver {
     /// Second phase of a substep: `iterations` relaxation sweeps (sticks by colour, angle
     /// constraints, tethers) per due island.
     pub fn relax_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
+        self.check_layout();
         let threads = executor.threads();
         // Large coloured islands are solved on every thread; the rest in groups.
         let big = |island: &Island, substep: &Substep, batches: &[super::Batch]| {
@@ -286,6 +314,7 @@ impl Solver {
         if self.colliders.is_empty() {
             return;
         }
+        self.check_layout();
         let (mut taken, islands) = self.take();
         {
             let views = views(&mut taken);
@@ -320,7 +349,7 @@ impl Solver {
         let torn = tear(&self.particles, &mut self.sticks, &mut self.torn);
         if torn > 0 {
             // Torn sticks must be skipped: no batch is known all-rigid any more.
-            for batch in &mut self.islands.batches {
+            for batch in &mut self.islands.batches.0 {
                 batch.rigid = false;
             }
             // A torn island is no longer calm.
@@ -341,7 +370,7 @@ impl Solver {
             return;
         };
         let p = &mut self.particles;
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             if island.asleep {
                 continue;
             }
@@ -536,6 +565,15 @@ impl Solver {
                 &self.tethers,
                 range(&island.tethers),
             );
+        }
+    }
+
+    /// Falls back to one island in array order when the islands do not describe the current
+    /// topology ([`Solver::is_organized`]): every phase checks, because the parallel paths
+    /// trust the islands (disjoint) and the batches marked independent (no shared particle).
+    fn check_layout(&mut self) {
+        if !self.is_organized() {
+            self.use_one_island();
         }
     }
 

@@ -19,6 +19,7 @@
 //! zero rest length with coincident ends is satisfied.
 
 use super::Particles;
+use super::islands::next_stamp;
 use super::shared::Shared;
 use glam::DVec3;
 use std::ops::Range;
@@ -49,8 +50,9 @@ pub enum StickKind {
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Sticks {
-    /// Particle indices of the two ends.
-    pub ends: Vec<[u32; 2]>,
+    /// Particle indices of the two ends (read with [`Sticks::ends`], change with
+    /// [`Sticks::set_ends`]: the solver's islands and colour batches are built from them).
+    pub(crate) ends: Vec<[u32; 2]>,
     /// Rest lengths.
     pub rest_length: Vec<f64>,
     /// XPBD compliances (inverse stiffness; `0` = rigid).
@@ -66,6 +68,8 @@ pub struct Sticks {
     /// Indices of the sticks with a finite tear strain (so that a scene without tearing pays
     /// nothing for the tear pass).
     pub tearable: Vec<u32>,
+    /// A stamp that changes with every change of `ends` (see [`next_stamp`]).
+    pub(crate) stamp: u64,
 }
 
 impl Sticks {
@@ -79,8 +83,37 @@ impl Sticks {
         self.ends.is_empty()
     }
 
+    /// Particle indices of the two ends of every stick.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Sticks, StickKind};
+    /// let mut sticks = Sticks::default();
+    /// sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// assert_eq!(sticks.ends(), &[[0, 1]]);
+    /// ```
+    pub fn ends(&self) -> &[[u32; 2]] {
+        &self.ends
+    }
+
+    /// Makes stick `i` join `ends` instead. This changes the topology: the solver's islands
+    /// no longer describe it, so [`Solver::step`](super::Solver::step) treats everything as
+    /// one island until the next [`Solver::organize`](super::Solver::organize).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Sticks, StickKind};
+    /// let mut sticks = Sticks::default();
+    /// sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// sticks.set_ends(0, [1, 2]);
+    /// assert_eq!(sticks.ends()[0], [1, 2]);
+    /// ```
+    pub fn set_ends(&mut self, i: usize, ends: [u32; 2]) {
+        self.ends[i] = ends;
+        self.stamp = next_stamp();
+    }
+
     /// Removes every stick, keeping the allocations.
     pub fn clear(&mut self) {
+        self.stamp = next_stamp();
         self.ends.clear();
         self.rest_length.clear();
         self.compliance.clear();
@@ -102,6 +135,7 @@ impl Sticks {
         handle: u64,
     ) -> u32 {
         let index = self.ends.len() as u32;
+        self.stamp = next_stamp();
         self.ends.push(ends);
         self.rest_length.push(rest_length);
         self.compliance.push(compliance);

@@ -260,7 +260,7 @@ fn tearing_uses_post_solve_strain_and_rebuilds_tethers() {
             p as usize
                 <= torn
                     .iter()
-                    .map(|&t| solver.sticks.ends[t as usize][0])
+                    .map(|&t| solver.sticks.ends()[t as usize][0])
                     .min()
                     .unwrap() as usize
         );

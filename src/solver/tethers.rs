@@ -11,6 +11,7 @@
 //! Tethers are derived from the topology: they are rebuilt whenever it changes, and after a
 //! tear, so that a torn piece is not held across the tear.
 
+use super::islands::next_stamp;
 use super::shared::Shared;
 use super::{Particles, Pins, StickKind, Sticks};
 use glam::DVec3;
@@ -36,10 +37,10 @@ use std::ops::Range;
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Tethers {
-    /// Tethered (free) particle.
-    pub particle: Vec<u32>,
-    /// Anchor (pinned) particle.
-    pub anchor: Vec<u32>,
+    /// Tethered (free) particle (read with [`Tethers::particle`]).
+    pub(crate) particle: Vec<u32>,
+    /// Anchor (pinned) particle (read with [`Tethers::anchor`]).
+    pub(crate) anchor: Vec<u32>,
     /// Largest allowed distance.
     pub max_length: Vec<f64>,
     // Scratch for the rebuild (kept to avoid reallocating).
@@ -47,6 +48,8 @@ pub struct Tethers {
     source: Vec<u32>,
     adjacency_start: Vec<u32>,
     adjacency: Vec<(u32, f64)>,
+    /// A stamp that changes with every change of `particle` or `anchor`.
+    pub(crate) stamp: u64,
 }
 
 #[derive(PartialEq)]
@@ -78,8 +81,29 @@ impl Tethers {
         self.particle.is_empty()
     }
 
+    /// The tethered (free) particle of every tether.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Tethers;
+    /// assert!(Tethers::default().particle().is_empty());
+    /// ```
+    pub fn particle(&self) -> &[u32] {
+        &self.particle
+    }
+
+    /// The anchor (pinned) particle of every tether.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Tethers;
+    /// assert!(Tethers::default().anchor().is_empty());
+    /// ```
+    pub fn anchor(&self) -> &[u32] {
+        &self.anchor
+    }
+
     /// Removes every tether.
     pub fn clear(&mut self) {
+        self.stamp = next_stamp();
         self.particle.clear();
         self.anchor.clear();
         self.max_length.clear();
