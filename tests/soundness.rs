@@ -166,6 +166,12 @@ fn share_a_particle(solver: &mut Solver) {
     solver.sticks.set_ends(second, [shared, other]);
 }
 
+/// The step fell back to the layout that is always safe: one island, solved serially.
+fn assert_one_serial_island(solver: &Solver) {
+    assert_eq!(solver.islands.list.len(), 1);
+    assert!(solver.islands.batches.iter().all(|b| !b.independent));
+}
+
 #[test]
 fn sticks_changed_after_organize_step_as_serial_on_two_threads() {
     let mut serial = scene();
@@ -179,6 +185,7 @@ fn sticks_changed_after_organize_step_as_serial_on_two_threads() {
     }
     assert!(serial.particles.all_finite());
     assert_eq!(bits(&serial), bits(&threaded));
+    assert_one_serial_island(&threaded);
     // Organized again, the new topology is split across threads as before.
     serial.organize();
     threaded.organize();
@@ -204,6 +211,7 @@ fn islands_of_another_topology_are_not_used() {
         threaded.step_with(&config(), &ScopedThreads(2));
     }
     assert_eq!(bits(&serial), bits(&threaded));
+    assert_one_serial_island(&threaded);
 }
 
 #[test]
@@ -229,6 +237,9 @@ fn a_change_between_substeps_is_noticed_by_the_next_phase() {
                 share_a_particle(solver);
             }
             solver.relax_substep(&substep, executor);
+            if index >= 2 {
+                assert_one_serial_island(solver);
+            }
             solver.constrain_substep(&substep, executor);
         }
         solver.finish_step();
