@@ -177,7 +177,10 @@ fn sticks_changed_after_organize_step_as_serial_on_two_threads() {
     let mut serial = scene();
     assert!(serial.islands.batches.iter().any(|b| b.independent));
     share_a_particle(&mut serial);
-    assert!(!serial.is_organized(), "the change must make the layout stale");
+    assert!(
+        !serial.is_organized(),
+        "the change must make the layout stale"
+    );
     let mut threaded = serial.clone();
     for _ in 0..10 {
         serial.step_with(&config(), &Serial);

@@ -20,7 +20,7 @@
 
 use super::Particles;
 use super::islands::next_stamp;
-use super::shared::Shared;
+use super::shared::SharedSlice;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
 use std::ops::Range;
@@ -144,24 +144,31 @@ fn wrap(angle: f64) -> f64 {
 /// Projects every angle constraint once (one Gauss–Seidel sweep) for a substep of length `h`.
 pub fn relax_angles(particles: &mut Particles, angles: &mut Angles, h: f64, accumulate: bool) {
     let mut lambda = std::mem::take(&mut angles.lambda);
-    relax_angle_range(
-        &Shared::new(&mut particles.position),
-        &particles.inverse_mass,
-        angles,
-        &Shared::new(&mut lambda),
-        0..angles.len(),
-        1.0 / (h * h),
-        accumulate,
-    );
+    // SAFETY: both slices are borrowed exclusively here; nothing else can access them.
+    unsafe {
+        relax_angle_range(
+            &SharedSlice::new(&mut particles.position),
+            &particles.inverse_mass,
+            angles,
+            &SharedSlice::new(&mut lambda),
+            0..angles.len(),
+            1.0 / (h * h),
+            accumulate,
+        );
+    }
     angles.lambda = lambda;
 }
 
 /// [`relax_angles`] over the angle constraints in `range`.
-pub(crate) fn relax_angle_range(
-    position: &Shared<DVec3>,
+///
+/// # Safety
+/// No other task accesses the particles of these constraints, or their multipliers, while this
+/// runs.
+pub(crate) unsafe fn relax_angle_range(
+    position: &SharedSlice<DVec3>,
     inverse_mass: &[f64],
     angles: &Angles,
-    lambda: &Shared<f64>,
+    lambda: &SharedSlice<f64>,
     range: Range<usize>,
     inv_h2: f64,
     accumulate: bool,
@@ -173,7 +180,8 @@ pub(crate) fn relax_angle_range(
             continue; // both arms on one particle: its corrections cancel
         }
         let w = [inverse_mass[a], inverse_mass[b], inverse_mass[c]];
-        let (pa, pb, pc) = (position.get(a), position.get(b), position.get(c));
+        // SAFETY: this task alone accesses these particles (caller).
+        let (pa, pb, pc) = unsafe { (position.get(a), position.get(b), position.get(c)) };
         let axis = angles.axis[i];
         // Arms projected into the plane of the signed angle.
         let flatten = |x: DVec3| match axis {
@@ -201,13 +209,16 @@ pub(crate) fn relax_angle_range(
             continue;
         }
         let constraint = wrap(theta - angles.rest_angle[i]);
-        let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
-        let d_lambda = (-constraint - alpha * lambda_i) / (denominator + alpha);
-        if accumulate {
-            lambda.set(i, lambda_i + d_lambda);
+        // SAFETY: this task alone accesses these particles and this multiplier (caller).
+        unsafe {
+            let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
+            let d_lambda = (-constraint - alpha * lambda_i) / (denominator + alpha);
+            if accumulate {
+                lambda.set(i, lambda_i + d_lambda);
+            }
+            position.set(a, pa + grad_a * (w[0] * d_lambda));
+            position.set(b, pb + grad_b * (w[1] * d_lambda));
+            position.set(c, pc + grad_c * (w[2] * d_lambda));
         }
-        position.set(a, pa + grad_a * (w[0] * d_lambda));
-        position.set(b, pb + grad_b * (w[1] * d_lambda));
-        position.set(c, pc + grad_c * (w[2] * d_lambda));
     }
 }

@@ -442,7 +442,8 @@ impl Solver {
             let first_batch = islands.batches.len() as u32;
             while grouping.of_stick(&self.sticks, stick) == k {
                 let batch_start = stick;
-                while grouping.of_stick(&self.sticks, stick) == k && colour[stick] == colour[batch_start]
+                while grouping.of_stick(&self.sticks, stick) == k
+                    && colour[stick] == colour[batch_start]
                 {
                     stick += 1;
                 }

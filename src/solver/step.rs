@@ -21,7 +21,7 @@ use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
     PARALLEL_MIN_WORK_PER_JOB, Serial, job_count, part,
 };
-use super::shared::Shared;
+use super::shared::SharedSlice;
 use super::sticks::relax_stick_range;
 use super::tethers::relax_tether_range;
 use super::{Island, Solver, StepConfig, Substep, tear};
@@ -85,10 +85,10 @@ impl GlobalSubstep {
 
 /// Positions, previous positions, multipliers and line scratch, shareable between jobs.
 struct Views<'a> {
-    position: Shared<'a, DVec3>,
-    previous: Shared<'a, DVec3>,
-    stick_lambda: Shared<'a, f64>,
-    angle_lambda: Shared<'a, f64>,
+    position: SharedSlice<'a, DVec3>,
+    previous: SharedSlice<'a, DVec3>,
+    stick_lambda: SharedSlice<'a, f64>,
+    angle_lambda: SharedSlice<'a, f64>,
     lines: LineViews<'a>,
 }
 
@@ -229,9 +229,18 @@ impl Solver {
             let views = views(&mut taken);
             let particles = &self.particles;
             for_due_particles(&islands.list, global, executor, &|slots, substep| {
+                // SAFETY: `slots` is this job's part of one island's particles: parts of one
+                // range are disjoint, islands are disjoint (the layout matches the topology:
+                // `check_layout`), and each part runs once (`run_jobs`).
+                let (position, previous) = unsafe {
+                    (
+                        views.position.part(slots.clone()),
+                        views.previous.part(slots.clone()),
+                    )
+                };
                 integrate_range(
-                    &views.position,
-                    &views.previous,
+                    &position,
+                    &previous,
                     &particles.inverse_mass,
                     slots,
                     substep.gravity,
@@ -239,16 +248,24 @@ impl Solver {
                     substep.damping_factor,
                 );
             });
+            // SAFETY: no job runs any more (serial from here on).
+            let (position, stick_lambda, angle_lambda) = unsafe {
+                (
+                    views.position.part(0..views.position.len()),
+                    views.stick_lambda.part(0..views.stick_lambda.len()),
+                    views.angle_lambda.part(0..views.angle_lambda.len()),
+                )
+            };
             for (island, substep) in due(&islands.list, global) {
                 let fraction = substep.index as f64 / substep.count as f64;
                 self.pins
-                    .drive_range(&views.position, range(&island.pins), fraction);
+                    .drive_range(&position, range(&island.pins), fraction);
                 if substep.accumulate {
                     for i in range(&island.sticks) {
-                        views.stick_lambda.set(i, 0.0);
+                        stick_lambda.set(i, 0.0);
                     }
                     for i in range(&island.angles) {
-                        views.angle_lambda.set(i, 0.0);
+                        angle_lambda.set(i, 0.0);
                     }
                 }
             }
@@ -299,7 +316,10 @@ impl Solver {
                 for (island, substep) in small() {
                     // An island belongs to the job its first unit of work falls in.
                     if done * jobs / total.max(1) == job {
-                        self.relax_island(&views, &islands, island, &substep);
+                        // SAFETY: each island belongs to one job, each job runs once
+                        // (`run_jobs`), islands share nothing (the layout matches the
+                        // topology: `check_layout`), and the large islands ran before.
+                        unsafe { self.relax_island(&views, &islands, island, &substep) };
                     }
                     done += work(island, &substep);
                 }
@@ -321,9 +341,16 @@ impl Solver {
             let particles = &self.particles;
             for_due_particles(&islands.list, global, executor, &|slots, substep| {
                 let gravity_step = substep.gravity.length() * substep.h * substep.h;
+                // SAFETY: as for the integration: this job's part of one island's particles.
+                let (position, previous) = unsafe {
+                    (
+                        views.position.part(slots.clone()),
+                        views.previous.part(slots.clone()),
+                    )
+                };
                 constrain_range(
-                    &views.position,
-                    &views.previous,
+                    &position,
+                    &previous,
                     (&particles.inverse_mass, &particles.radius),
                     &self.colliders,
                     slots,
@@ -397,7 +424,11 @@ impl Solver {
 
     /// One island's relaxation on the calling thread: its sticks in order, then angles and
     /// tethers, `iterations` times.
-    fn relax_island(
+    ///
+    /// # Safety
+    /// No other task accesses the island's particles, its sticks' and angle constraints'
+    /// multipliers or its lines' scratch while this runs.
+    unsafe fn relax_island(
         &self,
         views: &Views,
         islands: &super::Islands,
@@ -405,20 +436,27 @@ impl Solver {
         substep: &Substep,
     ) {
         for round in 0..substep.iterations {
-            if island.method == Method::Lines {
-                self.solve_lines_of(views, islands, island, substep, round == 0);
-            } else {
-                for batch in &islands.batches[range(&island.batches)] {
-                    self.relax_sticks_of(views, substep, batch);
+            // SAFETY: everything below belongs to this island, which this task holds (caller).
+            unsafe {
+                if island.method == Method::Lines {
+                    self.solve_lines_of(views, islands, island, substep, round == 0);
+                } else {
+                    for batch in &islands.batches[range(&island.batches)] {
+                        self.relax_sticks_of(views, substep, batch);
+                    }
                 }
+                self.relax_rest_of(views, island, substep);
             }
-            self.relax_rest_of(views, island, substep);
         }
     }
 
     /// One round of an island's lines (group after group: block Gauss–Seidel over lines), then
     /// its loose sticks.
-    fn solve_lines_of(
+    ///
+    /// # Safety
+    /// No other task accesses the island's particles, its sticks' and angle constraints'
+    /// multipliers or its lines' scratch while this runs.
+    unsafe fn solve_lines_of(
         &self,
         views: &Views,
         islands: &super::Islands,
@@ -442,13 +480,16 @@ impl Solver {
         let mut passes = 0;
         for group in &set.groups[range(&island.line_groups)] {
             for line in &set.lines[range(group)] {
-                passes += solve.solve(&LineRef::of(line, set)) as u64;
+                // SAFETY: the line's particles, sticks and scratch are the island's (the
+                // layout matches the topology), which this task holds (caller).
+                passes += unsafe { solve.solve(&LineRef::of(line, set)) } as u64;
             }
         }
         self.line_passes.0.fetch_add(passes, Ordering::Relaxed);
         for &stick in &set.loose[range(&island.loose)] {
             let stick = stick as usize;
-            self.relax_stick_part(views, substep, stick..stick + 1, false);
+            // SAFETY: a stick of the island, which this task holds (caller).
+            unsafe { self.relax_stick_part(views, substep, stick..stick + 1, false) };
         }
     }
 
@@ -488,12 +529,19 @@ impl Solver {
                     if chunk >= chunks {
                         break;
                     }
-                    match batches.get(k) {
-                        Some(batch) => {
-                            let sticks = part(range(&batch.sticks), chunk, chunks);
-                            self.relax_stick_part(views, substep, sticks, batch.rigid);
+                    // SAFETY: only this step's chunks run now (every thread waits for all of them
+                    // before the next step) and each chunk runs once (claimed). The chunks of an
+                    // independent batch share no particle or stick (the layout matches the
+                    // topology: `check_layout`); any other step is one chunk. The island is
+                    // disjoint from every other (small islands run after this call returns).
+                    unsafe {
+                        match batches.get(k) {
+                            Some(batch) => {
+                                let sticks = part(range(&batch.sticks), chunk, chunks);
+                                self.relax_stick_part(views, substep, sticks, batch.rigid);
+                            }
+                            None => self.relax_rest_of(views, island, substep),
                         }
-                        None => self.relax_rest_of(views, island, substep),
                     }
                     // (Release: the next batch's claimers see these positions.)
                     done.fetch_add(1, Ordering::Release);
@@ -521,50 +569,75 @@ impl Solver {
         }
     }
 
-    fn relax_sticks_of(&self, views: &Views, substep: &Substep, batch: &super::Batch) {
-        self.relax_stick_part(views, substep, range(&batch.sticks), batch.rigid);
+    /// One sweep over a colour batch.
+    ///
+    /// # Safety
+    /// No other task accesses the particles of the batch's sticks, or their multipliers, while
+    /// this runs.
+    unsafe fn relax_sticks_of(&self, views: &Views, substep: &Substep, batch: &super::Batch) {
+        // SAFETY: this task holds the batch (caller).
+        unsafe { self.relax_stick_part(views, substep, range(&batch.sticks), batch.rigid) };
     }
 
-    fn relax_stick_part(
+    /// One sweep over the sticks in `sticks`.
+    ///
+    /// # Safety
+    /// No other task accesses the particles of these sticks, or their multipliers, while this
+    /// runs.
+    unsafe fn relax_stick_part(
         &self,
         views: &Views,
         substep: &Substep,
         sticks: Range<usize>,
         rigid: bool,
     ) {
-        relax_stick_range(
-            &views.position,
-            &self.particles.inverse_mass,
-            &self.sticks,
-            &views.stick_lambda,
-            sticks,
-            1.0 / (substep.h * substep.h),
-            substep.accumulate,
-            rigid,
-        );
+        // SAFETY: this task holds these sticks (caller).
+        unsafe {
+            relax_stick_range(
+                &views.position,
+                &self.particles.inverse_mass,
+                &self.sticks,
+                &views.stick_lambda,
+                sticks,
+                1.0 / (substep.h * substep.h),
+                substep.accumulate,
+                rigid,
+            );
+        }
     }
 
     /// An island's angle constraints and tethers (one sweep).
-    fn relax_rest_of(&self, views: &Views, island: &Island, substep: &Substep) {
+    ///
+    /// # Safety
+    /// No other task accesses the island's particles or its angle constraints' multipliers
+    /// while this runs.
+    unsafe fn relax_rest_of(&self, views: &Views, island: &Island, substep: &Substep) {
         let inverse_mass = &self.particles.inverse_mass;
         if !island.angles.is_empty() {
-            relax_angle_range(
-                &views.position,
-                inverse_mass,
-                &self.angles,
-                &views.angle_lambda,
-                range(&island.angles),
-                1.0 / (substep.h * substep.h),
-                substep.accumulate,
-            );
+            // SAFETY: the island's constraints join its own particles (the layout matches the
+            // topology), which this task holds (caller).
+            unsafe {
+                relax_angle_range(
+                    &views.position,
+                    inverse_mass,
+                    &self.angles,
+                    &views.angle_lambda,
+                    range(&island.angles),
+                    1.0 / (substep.h * substep.h),
+                    substep.accumulate,
+                )
+            };
         }
         if !island.tethers.is_empty() {
-            relax_tether_range(
-                &views.position,
-                inverse_mass,
-                &self.tethers,
-                range(&island.tethers),
-            );
+            // SAFETY: as above (tethers are rebuilt from the solver's own sticks).
+            unsafe {
+                relax_tether_range(
+                    &views.position,
+                    inverse_mass,
+                    &self.tethers,
+                    range(&island.tethers),
+                )
+            };
         }
     }
 
@@ -603,10 +676,10 @@ impl Solver {
 
 fn views(taken: &mut Taken) -> Views<'_> {
     Views {
-        position: Shared::new(&mut taken.position),
-        previous: Shared::new(&mut taken.previous),
-        stick_lambda: Shared::new(&mut taken.stick_lambda),
-        angle_lambda: Shared::new(&mut taken.angle_lambda),
+        position: SharedSlice::new(&mut taken.position),
+        previous: SharedSlice::new(&mut taken.previous),
+        stick_lambda: SharedSlice::new(&mut taken.stick_lambda),
+        angle_lambda: SharedSlice::new(&mut taken.angle_lambda),
         lines: LineViews::new(&mut taken.lines),
     }
 }

@@ -12,7 +12,7 @@
 //! tear, so that a torn piece is not held across the tear.
 
 use super::islands::next_stamp;
-use super::shared::Shared;
+use super::shared::SharedSlice;
 use super::{Particles, Pins, StickKind, Sticks};
 use glam::DVec3;
 use std::cmp::Ordering;
@@ -190,17 +190,23 @@ impl Tethers {
 /// Projects every tether once: a particle farther than its tether's length from its anchor is
 /// moved back onto the sphere around the anchor.
 pub fn relax_tethers(particles: &mut Particles, tethers: &Tethers) {
-    relax_tether_range(
-        &Shared::new(&mut particles.position),
-        &particles.inverse_mass,
-        tethers,
-        0..tethers.len(),
-    );
+    // SAFETY: the positions are borrowed exclusively here; nothing else can access them.
+    unsafe {
+        relax_tether_range(
+            &SharedSlice::new(&mut particles.position),
+            &particles.inverse_mass,
+            tethers,
+            0..tethers.len(),
+        );
+    }
 }
 
 /// [`relax_tethers`] over the tethers in `range`.
-pub(crate) fn relax_tether_range(
-    position: &Shared<DVec3>,
+///
+/// # Safety
+/// No other task accesses the particles or anchors of these tethers while this runs.
+pub(crate) unsafe fn relax_tether_range(
+    position: &SharedSlice<DVec3>,
     inverse_mass: &[f64],
     tethers: &Tethers,
     range: Range<usize>,
@@ -211,11 +217,14 @@ pub(crate) fn relax_tether_range(
             continue; // grabbed or pinned since the tethers were built
         }
         let max = tethers.max_length[i];
-        let anchor = position.get(a);
-        let delta: DVec3 = position.get(p) - anchor;
-        let length_squared = delta.length_squared();
-        if length_squared > max * max {
-            position.set(p, anchor + delta * (max / length_squared.sqrt()));
+        // SAFETY: this task alone accesses the particle and its anchor (caller).
+        unsafe {
+            let anchor = position.get(a);
+            let delta: DVec3 = position.get(p) - anchor;
+            let length_squared = delta.length_squared();
+            if length_squared > max * max {
+                position.set(p, anchor + delta * (max / length_squared.sqrt()));
+            }
         }
     }
 }
