@@ -7,6 +7,20 @@
 //! sorted by colour (see [`colouring`](super::colouring)) and, within a colour, by particle index
 //! (so a sweep walks memory forwards). The reordering is returned as a [`Reorder`] so callers can
 //! remap their own indices; the Bevy layer does this on every topology change.
+//!
+//! # Soundness
+//!
+//! The parallel step trusts the layout: islands share no particle, and the sticks of a batch
+//! marked [`Batch::independent`] share none. So no safe code can change it or hand the solver a
+//! stale one: the lists are [`ReadOnly`] outside the crate (sleep states change through
+//! [`Solver::set_asleep`] and [`Solver::wake`]); the particle indices the layout is built from
+//! ([`Sticks::ends`](super::Sticks::ends), [`Angles::particles`](super::Angles::particles),
+//! [`Tethers::particle`](super::Tethers::particle) and `anchor`) are read-only fields changed
+//! only by methods that take a fresh, never-reused stamp; and [`Islands`] remember the stamps
+//! and sizes they were built for. Every phase of the step checks them
+//! ([`Solver::is_organized`]) and, on a mismatch — an edit after [`Solver::organize`], or the
+//! islands of another solver assigned to this one — treats everything as one island solved on
+//! one thread, which is always safe (and the serial result). `tests/soundness.rs` checks this.
 
 use super::colouring::{Batch, MAX_COLOURS, colour_sticks};
 use super::lines::{LineSet, Method, cover, is_chain_or_tree};
