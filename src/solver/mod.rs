@@ -260,16 +260,26 @@ impl Solver {
 
     /// Recomputes the tethers of the particles flagged in [`Solver::tethered`].
     pub fn rebuild_tethers(&mut self) {
-        // Tethers rebuilt from the solver's own sticks join particles of one island: islands
-        // that matched the topology still do.
         let organized = self.is_organized();
         self.tethered.resize(self.particles.len(), false);
         self.tethers
             .rebuild(&self.particles, &self.sticks, &self.pins, &self.tethered);
         self.assign_tether_ranges();
-        if organized {
+        // Islands that matched the topology still do if every tether stays in one island (a
+        // torn stick made whole again could join two).
+        if organized && self.tethers_within_islands() {
             self.islands.stamps = self.stamps();
         }
+    }
+
+    /// `true` when every tether joins two particles of one island.
+    fn tethers_within_islands(&self) -> bool {
+        let islands = &self.islands;
+        let tethers = &self.tethers;
+        (0..tethers.len()).all(|i| {
+            let island = islands.of_particle(tethers.particle[i]);
+            island.is_some() && island == islands.of_particle(tethers.anchor[i])
+        })
     }
 
     /// How many Newton passes the line solves have taken since the solver was made (a cost
