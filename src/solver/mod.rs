@@ -194,7 +194,8 @@ pub struct Solver {
     pub colliders: Vec<Collider>,
     /// Indices of the sticks torn by the last [`Solver::step`].
     pub torn: Vec<u32>,
-    /// Islands, their colour batches and sleep states (see [`Solver::organize`]).
+    /// Islands, their colour batches and sleep states (see [`Solver::organize`]): read-only
+    /// lists, used by the step only while they match the topology ([`Solver::is_organized`]).
     pub islands: Islands,
     /// Per-island overrides: the island containing the particle uses these settings (applied
     /// by [`Solver::organize`]).
