@@ -101,7 +101,7 @@ impl Bare {
             inverse_mass: solver.particles.inverse_mass.clone(),
             sticks: (0..solver.sticks.len())
                 .map(|i| {
-                    let [a, b] = solver.sticks.ends[i];
+                    let [a, b] = solver.sticks.ends()[i];
                     (a, b, solver.sticks.rest_length[i])
                 })
                 .collect(),

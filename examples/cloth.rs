@@ -41,7 +41,7 @@ fn scripted_cut(
         return;
     }
     let solver = &state.solver;
-    for (i, &[a, b]) in solver.sticks.ends.iter().enumerate() {
+    for (i, &[a, b]) in solver.sticks.ends().iter().enumerate() {
         let mid =
             (solver.particles.position[a as usize] + solver.particles.position[b as usize]) * 0.5;
         let on_slit = (mid.x - (80.0 + 0.5 * (mid.y + 120.0))).abs() < 4.0 && mid.y < 120.0;

@@ -48,7 +48,7 @@ fn max_strain(solver: &Solver) -> f64 {
 fn total_stretch(solver: &Solver) -> f64 {
     let (mut length, mut rest) = (0.0, 0.0);
     for i in 0..solver.sticks.len() {
-        let [a, b] = solver.sticks.ends[i].map(|p| p as usize);
+        let [a, b] = solver.sticks.ends()[i].map(|p| p as usize);
         length += (solver.particles.position[a] - solver.particles.position[b]).length();
         rest += solver.sticks.rest_length[i];
     }

@@ -98,7 +98,7 @@ fn organize_finds_islands_and_keeps_small_islands_bitwise() {
     assert_eq!(organized.islands.list.len(), 6);
     for island in &organized.islands.list {
         for stick in island.sticks.clone() {
-            for end in organized.sticks.ends[stick as usize] {
+            for end in organized.sticks.ends()[stick as usize] {
                 assert!(island.particles.contains(&end), "stick leaves its island");
             }
         }
@@ -141,7 +141,7 @@ fn check_batches(solver: &Solver) -> (usize, bool) {
             let mut particles = HashSet::new();
             for stick in batch.sticks.clone() {
                 assert!(!std::mem::replace(&mut seen[stick as usize], true));
-                for end in solver.sticks.ends[stick as usize] {
+                for end in solver.sticks.ends()[stick as usize] {
                     assert!(island.particles.contains(&end), "stick leaves its island");
                     if batch.independent {
                         assert!(particles.insert(end), "two sticks of a batch share {end}");

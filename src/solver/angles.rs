@@ -19,7 +19,8 @@
 //! mass ratios with stick-held arms stayed bounded.
 
 use super::Particles;
-use super::shared::Shared;
+use super::islands::next_stamp;
+use super::shared::SharedSlice;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
 use std::ops::Range;
@@ -40,8 +41,9 @@ use std::ops::Range;
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Angles {
-    /// Particle indices `[a, b, c]`; the angle is measured at `b`.
-    pub particles: Vec<[u32; 3]>,
+    /// Particle indices `[a, b, c]`; the angle is measured at `b` (read with
+    /// [`Angles::particles`]: the solver's islands are built from them).
+    pub(crate) particles: Vec<[u32; 3]>,
     /// Rest angles in radians (signed when an axis is given).
     pub rest_angle: Vec<f64>,
     /// XPBD compliances (rad / (N·m); `0` = rigid).
@@ -50,6 +52,8 @@ pub struct Angles {
     pub axis: Vec<Option<DVec3>>,
     /// Accumulated XPBD multipliers of the current substep.
     pub lambda: Vec<f64>,
+    /// A stamp that changes with every change of `particles`.
+    pub(crate) stamp: u64,
 }
 
 impl Angles {
@@ -63,8 +67,21 @@ impl Angles {
         self.particles.is_empty()
     }
 
+    /// Particle indices `[a, b, c]` of every constraint (the angle is measured at `b`).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Angles;
+    /// let mut angles = Angles::default();
+    /// angles.push([0, 1, 2], 1.0, 0.0, None);
+    /// assert_eq!(angles.particles(), &[[0, 1, 2]]);
+    /// ```
+    pub fn particles(&self) -> &[[u32; 3]] {
+        &self.particles
+    }
+
     /// Removes every angle constraint.
     pub fn clear(&mut self) {
+        self.stamp = next_stamp();
         self.particles.clear();
         self.rest_angle.clear();
         self.compliance.clear();
@@ -80,6 +97,7 @@ impl Angles {
         compliance: f64,
         axis: Option<DVec3>,
     ) -> usize {
+        self.stamp = next_stamp();
         self.particles.push(particles);
         self.rest_angle.push(rest_angle);
         self.compliance.push(compliance);
@@ -126,24 +144,31 @@ fn wrap(angle: f64) -> f64 {
 /// Projects every angle constraint once (one Gauss–Seidel sweep) for a substep of length `h`.
 pub fn relax_angles(particles: &mut Particles, angles: &mut Angles, h: f64, accumulate: bool) {
     let mut lambda = std::mem::take(&mut angles.lambda);
-    relax_angle_range(
-        &Shared::new(&mut particles.position),
-        &particles.inverse_mass,
-        angles,
-        &Shared::new(&mut lambda),
-        0..angles.len(),
-        1.0 / (h * h),
-        accumulate,
-    );
+    // SAFETY: both slices are borrowed exclusively here; nothing else can access them.
+    unsafe {
+        relax_angle_range(
+            &SharedSlice::new(&mut particles.position),
+            &particles.inverse_mass,
+            angles,
+            &SharedSlice::new(&mut lambda),
+            0..angles.len(),
+            1.0 / (h * h),
+            accumulate,
+        );
+    }
     angles.lambda = lambda;
 }
 
 /// [`relax_angles`] over the angle constraints in `range`.
-pub(crate) fn relax_angle_range(
-    position: &Shared<DVec3>,
+///
+/// # Safety
+/// No other task accesses the particles of these constraints, or their multipliers, while this
+/// runs.
+pub(crate) unsafe fn relax_angle_range(
+    position: &SharedSlice<DVec3>,
     inverse_mass: &[f64],
     angles: &Angles,
-    lambda: &Shared<f64>,
+    lambda: &SharedSlice<f64>,
     range: Range<usize>,
     inv_h2: f64,
     accumulate: bool,
@@ -155,7 +180,8 @@ pub(crate) fn relax_angle_range(
             continue; // both arms on one particle: its corrections cancel
         }
         let w = [inverse_mass[a], inverse_mass[b], inverse_mass[c]];
-        let (pa, pb, pc) = (position.get(a), position.get(b), position.get(c));
+        // SAFETY: this task alone accesses these particles (caller).
+        let (pa, pb, pc) = unsafe { (position.get(a), position.get(b), position.get(c)) };
         let axis = angles.axis[i];
         // Arms projected into the plane of the signed angle.
         let flatten = |x: DVec3| match axis {
@@ -183,13 +209,16 @@ pub(crate) fn relax_angle_range(
             continue;
         }
         let constraint = wrap(theta - angles.rest_angle[i]);
-        let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
-        let d_lambda = (-constraint - alpha * lambda_i) / (denominator + alpha);
-        if accumulate {
-            lambda.set(i, lambda_i + d_lambda);
+        // SAFETY: this task alone accesses these particles and this multiplier (caller).
+        unsafe {
+            let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
+            let d_lambda = (-constraint - alpha * lambda_i) / (denominator + alpha);
+            if accumulate {
+                lambda.set(i, lambda_i + d_lambda);
+            }
+            position.set(a, pa + grad_a * (w[0] * d_lambda));
+            position.set(b, pb + grad_b * (w[1] * d_lambda));
+            position.set(c, pc + grad_c * (w[2] * d_lambda));
         }
-        position.set(a, pa + grad_a * (w[0] * d_lambda));
-        position.set(b, pb + grad_b * (w[1] * d_lambda));
-        position.set(c, pc + grad_c * (w[2] * d_lambda));
     }
 }

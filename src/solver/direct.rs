@@ -68,7 +68,7 @@
 //! ```
 
 use super::Sticks;
-use super::shared::Shared;
+use super::shared::SharedSlice;
 use super::sticks::{coincident_direction, relax_stick_range};
 use super::{StickKind, lines::Line};
 use glam::DVec3;
@@ -152,23 +152,23 @@ impl LineScratch {
 
 /// [`LineScratch`] shared by the jobs of a substep (lines of a group share no stick).
 pub(crate) struct LineViews<'a> {
-    pub start: Shared<'a, DVec3>,
-    pub direction: Shared<'a, DVec3>,
-    pub upper: Shared<'a, f64>,
-    pub rhs: Shared<'a, f64>,
-    pub warm: Shared<'a, f64>,
-    pub mode: Shared<'a, LineMode>,
+    pub start: SharedSlice<'a, DVec3>,
+    pub direction: SharedSlice<'a, DVec3>,
+    pub upper: SharedSlice<'a, f64>,
+    pub rhs: SharedSlice<'a, f64>,
+    pub warm: SharedSlice<'a, f64>,
+    pub mode: SharedSlice<'a, LineMode>,
 }
 
 impl<'a> LineViews<'a> {
     pub(crate) fn new(scratch: &'a mut LineScratch) -> Self {
         Self {
-            start: Shared::new(&mut scratch.start),
-            direction: Shared::new(&mut scratch.direction),
-            upper: Shared::new(&mut scratch.upper),
-            rhs: Shared::new(&mut scratch.rhs),
-            warm: Shared::new(&mut scratch.warm),
-            mode: Shared::new(&mut scratch.mode),
+            start: SharedSlice::new(&mut scratch.start),
+            direction: SharedSlice::new(&mut scratch.direction),
+            upper: SharedSlice::new(&mut scratch.upper),
+            rhs: SharedSlice::new(&mut scratch.rhs),
+            warm: SharedSlice::new(&mut scratch.warm),
+            mode: SharedSlice::new(&mut scratch.mode),
         }
     }
 }
@@ -176,11 +176,11 @@ impl<'a> LineViews<'a> {
 /// Everything one line solve reads and writes.
 #[derive(Clone, Copy)]
 pub(crate) struct LineSolve<'a, 'v> {
-    pub position: &'a Shared<'v, DVec3>,
-    pub previous: &'a Shared<'v, DVec3>,
+    pub position: &'a SharedSlice<'v, DVec3>,
+    pub previous: &'a SharedSlice<'v, DVec3>,
     /// Receives every move made to `position` too (set while stabilising the start positions).
-    pub mirror: Option<&'a Shared<'v, DVec3>>,
-    pub lambda: &'a Shared<'v, f64>,
+    pub mirror: Option<&'a SharedSlice<'v, DVec3>>,
+    pub lambda: &'a SharedSlice<'v, f64>,
     pub inverse_mass: &'a [f64],
     pub sticks: &'a Sticks,
     pub scratch: &'a LineViews<'v>,
@@ -220,64 +220,79 @@ struct Row {
 
 impl LineSolve<'_, '_> {
     /// Solves one line; returns the Newton passes taken.
-    pub(crate) fn solve(&self, line: &LineRef) -> u32 {
-        if line.sticks.is_empty() {
-            return 0;
-        }
-        let mut predicted = f64::INFINITY;
-        if self.first_round {
-            let violated;
-            (predicted, violated) = self.begin(line);
-            if violated > STABILISE_ABOVE && self.scratch.mode.get(line.offset) != LineMode::Sweep {
-                self.take_back(line);
-                self.stabilise_start(line);
-                predicted = self.begin(line).0;
+    ///
+    /// # Safety
+    /// No other task accesses the line's particles, its sticks' multipliers or its scratch
+    /// (nor, with a mirror, the mirror's entries of its particles) while this runs.
+    pub(crate) unsafe fn solve(&self, line: &LineRef) -> u32 {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            if line.sticks.is_empty() {
+                return 0;
             }
+            let mut predicted = f64::INFINITY;
+            if self.first_round {
+                let violated;
+                (predicted, violated) = self.begin(line);
+                if violated > STABILISE_ABOVE
+                    && self.scratch.mode.get(line.offset) != LineMode::Sweep
+                {
+                    self.take_back(line);
+                    self.stabilise_start(line);
+                    predicted = self.begin(line).0;
+                }
+            }
+            let mode = self.scratch.mode.get(line.offset);
+            if mode == LineMode::Sweep {
+                self.sweep(line);
+                return 0;
+            }
+            let shaking = mode == LineMode::Shake;
+            let budget = if shaking { SHAKE_PASSES } else { MAX_PASSES };
+            let (mut passes, converged) = self.newton(line, budget, predicted);
+            if shaking && !converged {
+                // SHAKE did not converge (links turned too far for the start directions): undo
+                // it and project along the current directions instead.
+                self.restart_without_shake(line);
+                passes += self.newton(line, MAX_PASSES, f64::INFINITY).0;
+            }
+            for (k, &s) in line.sticks.iter().enumerate() {
+                self.scratch
+                    .warm
+                    .set(line.offset + k, self.lambda.get(s as usize));
+            }
+            passes
         }
-        let mode = self.scratch.mode.get(line.offset);
-        if mode == LineMode::Sweep {
-            self.sweep(line);
-            return 0;
-        }
-        let shaking = mode == LineMode::Shake;
-        let budget = if shaking { SHAKE_PASSES } else { MAX_PASSES };
-        let (mut passes, converged) = self.newton(line, budget, predicted);
-        if shaking && !converged {
-            // SHAKE did not converge (links turned too far for the start directions): undo
-            // it and project along the current directions instead.
-            self.restart_without_shake(line);
-            passes += self.newton(line, MAX_PASSES, f64::INFINITY).0;
-        }
-        for (k, &s) in line.sticks.iter().enumerate() {
-            self.scratch
-                .warm
-                .set(line.offset + k, self.lambda.get(s as usize));
-        }
-        passes
     }
 
     /// Newton passes until the line is within [`TOLERANCE`] or `budget` passes are done.
     /// `predicted` is the error before the warm start: a warm start that made things worse is
     /// taken back. Returns the passes taken and whether it converged.
-    fn newton(&self, line: &LineRef, budget: u32, predicted: f64) -> (u32, bool) {
-        let mut passes = 0;
-        let mut error = self.forward(line);
-        if error > predicted {
-            self.take_back(line);
-            error = self.forward(line);
-        }
-        loop {
-            if passes > 0 {
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn newton(&self, line: &LineRef, budget: u32, predicted: f64) -> (u32, bool) {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            let mut passes = 0;
+            let mut error = self.forward(line);
+            if error > predicted {
+                self.take_back(line);
                 error = self.forward(line);
             }
-            if error <= TOLERANCE {
-                return (passes, true);
+            loop {
+                if passes > 0 {
+                    error = self.forward(line);
+                }
+                if error <= TOLERANCE {
+                    return (passes, true);
+                }
+                if passes == budget {
+                    return (passes, false);
+                }
+                self.backward(line);
+                passes += 1;
             }
-            if passes == budget {
-                return (passes, false);
-            }
-            self.backward(line);
-            passes += 1;
         }
     }
 
@@ -285,86 +300,92 @@ impl LineSolve<'_, '_> {
     /// turn is small; a sweep when a rigid segment between immovable particles is taut), and
     /// the warm start `λ = λ_last` applied along the start directions (SHAKE only) — one
     /// traversal. Returns the largest `|C|/L` before the warm start.
-    fn begin(&self, line: &LineRef) -> (f64, f64) {
-        let v = self.scratch;
-        let mut shake = self.shake;
-        let mut taut = false;
-        let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
-        let mut before = DVec3::ZERO; // s_{k−1} λ_{k−1}
-        // The last immovable particle and the rest length of the rigid sticks since (∞ once a
-        // stick that can stretch is passed).
-        let (mut anchor, mut anchor_rest): (Option<DVec3>, f64) = (None, 0.0);
-        let m = line.sticks.len();
-        let mut x = self.position.get(line.particles[0] as usize);
-        for j in 0..=m {
-            let p = line.particles[j] as usize;
-            let w = self.inverse_mass[p];
-            if w <= 0.0 {
-                if let Some(at) = anchor {
-                    taut |= (x - at).length() >= anchor_rest * (1.0 - TAUT);
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn begin(&self, line: &LineRef) -> (f64, f64) {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            let v = self.scratch;
+            let mut shake = self.shake;
+            let mut taut = false;
+            let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
+            let mut before = DVec3::ZERO; // s_{k−1} λ_{k−1}
+            // The last immovable particle and the rest length of the rigid sticks since (∞ once a
+            // stick that can stretch is passed).
+            let (mut anchor, mut anchor_rest): (Option<DVec3>, f64) = (None, 0.0);
+            let m = line.sticks.len();
+            let mut x = self.position.get(line.particles[0] as usize);
+            for j in 0..=m {
+                let p = line.particles[j] as usize;
+                let w = self.inverse_mass[p];
+                if w <= 0.0 {
+                    if let Some(at) = anchor {
+                        taut |= (x - at).length() >= anchor_rest * (1.0 - TAUT);
+                    }
+                    (anchor, anchor_rest) = (Some(x), 0.0);
                 }
-                (anchor, anchor_rest) = (Some(x), 0.0);
-            }
-            let mut after = DVec3::ZERO;
-            let mut x_next = DVec3::ZERO;
-            if j < m {
-                let s = line.sticks[j] as usize;
-                let q = line.particles[j + 1] as usize;
-                let at_start = self.previous.get(q) - self.previous.get(p);
-                let start_length = at_start.length();
-                let start = if start_length > 1e-12 {
-                    at_start / start_length
-                } else {
-                    coincident_direction(s)
-                };
-                x_next = self.position.get(q);
-                let d = x_next - x;
-                let length = d.length();
-                let (rest, kind) = (self.sticks.rest_length[s], self.sticks.kind[s]);
-                let inverse_rest = 1.0 / rest.max(1e-12);
-                // (Only rigid sticks: a compliant stick's stretch is its spring's, not an error.)
-                let rigid_equal = kind == StickKind::Equal && self.sticks.compliance[s] == 0.0;
-                if rigid_equal && self.inverse_mass[q] + w > 0.0 {
-                    violated = violated.max((start_length - rest).abs() * inverse_rest);
+                let mut after = DVec3::ZERO;
+                let mut x_next = DVec3::ZERO;
+                if j < m {
+                    let s = line.sticks[j] as usize;
+                    let q = line.particles[j + 1] as usize;
+                    let at_start = self.previous.get(q) - self.previous.get(p);
+                    let start_length = at_start.length();
+                    let start = if start_length > 1e-12 {
+                        at_start / start_length
+                    } else {
+                        coincident_direction(s)
+                    };
+                    x_next = self.position.get(q);
+                    let d = x_next - x;
+                    let length = d.length();
+                    let (rest, kind) = (self.sticks.rest_length[s], self.sticks.kind[s]);
+                    let inverse_rest = 1.0 / rest.max(1e-12);
+                    // (Only rigid sticks: a compliant stick's stretch is its spring's, not an error.)
+                    let rigid_equal = kind == StickKind::Equal && self.sticks.compliance[s] == 0.0;
+                    if rigid_equal && self.inverse_mass[q] + w > 0.0 {
+                        violated = violated.max((start_length - rest).abs() * inverse_rest);
+                    }
+                    predicted = predicted.max((length - rest).abs() * inverse_rest);
+                    shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
+                    v.start.set(line.offset + j, start);
+                    // (The projection starts from the prediction: it stays a pure projection. A
+                    // one-sided stick is warm-started only in the direction it can act.)
+                    let warm = match kind {
+                        _ if !self.shake => 0.0,
+                        StickKind::Equal => v.warm.get(line.offset + j),
+                        StickKind::AtMost => v.warm.get(line.offset + j).min(0.0),
+                        StickKind::AtLeast => v.warm.get(line.offset + j).max(0.0),
+                        StickKind::Torn => 0.0,
+                    };
+                    self.lambda.set(s, warm);
+                    after = start * warm;
+                    let rigid = matches!(kind, StickKind::Equal | StickKind::AtMost)
+                        && self.sticks.compliance[s] == 0.0;
+                    anchor_rest = if rigid {
+                        anchor_rest + rest
+                    } else {
+                        f64::INFINITY
+                    };
                 }
-                predicted = predicted.max((length - rest).abs() * inverse_rest);
-                shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
-                v.start.set(line.offset + j, start);
-                // (The projection starts from the prediction: it stays a pure projection. A
-                // one-sided stick is warm-started only in the direction it can act.)
-                let warm = match kind {
-                    _ if !self.shake => 0.0,
-                    StickKind::Equal => v.warm.get(line.offset + j),
-                    StickKind::AtMost => v.warm.get(line.offset + j).min(0.0),
-                    StickKind::AtLeast => v.warm.get(line.offset + j).max(0.0),
-                    StickKind::Torn => 0.0,
-                };
-                self.lambda.set(s, warm);
-                after = start * warm;
-                let rigid = matches!(kind, StickKind::Equal | StickKind::AtMost)
-                    && self.sticks.compliance[s] == 0.0;
-                anchor_rest = if rigid {
-                    anchor_rest + rest
-                } else {
-                    f64::INFINITY
-                };
+                if w > 0.0 {
+                    self.position.set(p, x + (before - after) * w);
+                }
+                before = after;
+                x = x_next;
             }
-            if w > 0.0 {
-                self.position.set(p, x + (before - after) * w);
-            }
-            before = after;
-            x = x_next;
+            let mode = if taut {
+                self.take_back(line);
+                LineMode::Sweep
+            } else if shake {
+                LineMode::Shake
+            } else {
+                LineMode::Project
+            };
+            v.mode.set(line.offset, mode);
+            (predicted, violated)
         }
-        let mode = if taut {
-            self.take_back(line);
-            LineMode::Sweep
-        } else if shake {
-            LineMode::Shake
-        } else {
-            LineMode::Project
-        };
-        v.mode.set(line.offset, mode);
-        (predicted, violated)
     }
 
     /// Moves the line's start-of-substep positions onto its constraints (Newton on the previous
@@ -372,178 +393,224 @@ impl LineSolve<'_, '_> {
     /// rest length edited, sticks spawned shorter or longer than their ends are apart — is
     /// corrected without turning into velocity (Verlet's velocity is `x − x*`). Without it, an
     /// exact solve fixes a 10 % violation in one substep and launches the line.
-    fn stabilise_start(&self, line: &LineRef) {
-        let mode = self.scratch.mode.get(line.offset);
-        self.scratch.mode.set(line.offset, LineMode::Project);
-        let start = LineSolve {
-            position: self.previous,
-            mirror: Some(self.position),
-            shake: false,
-            first_round: false,
-            ..*self
-        };
-        start.newton(line, MAX_PASSES, f64::INFINITY);
-        for &s in line.sticks {
-            self.lambda.set(s as usize, 0.0);
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn stabilise_start(&self, line: &LineRef) {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            let mode = self.scratch.mode.get(line.offset);
+            self.scratch.mode.set(line.offset, LineMode::Project);
+            let start = LineSolve {
+                position: self.previous,
+                mirror: Some(self.position),
+                shake: false,
+                first_round: false,
+                ..*self
+            };
+            start.newton(line, MAX_PASSES, f64::INFINITY);
+            for &s in line.sticks {
+                self.lambda.set(s as usize, 0.0);
+            }
+            self.scratch.mode.set(line.offset, mode);
         }
-        self.scratch.mode.set(line.offset, mode);
     }
 
     /// One Gauss–Seidel sweep over the line's sticks, in order (see [`LineMode::Sweep`]).
-    fn sweep(&self, line: &LineRef) {
-        for (k, &s) in line.sticks.iter().enumerate() {
-            let s = s as usize;
-            relax_stick_range(
-                self.position,
-                self.inverse_mass,
-                self.sticks,
-                self.lambda,
-                s..s + 1,
-                self.inv_h2,
-                false,
-                false,
-            );
-            self.scratch.warm.set(line.offset + k, 0.0);
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn sweep(&self, line: &LineRef) {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            for (k, &s) in line.sticks.iter().enumerate() {
+                let s = s as usize;
+                relax_stick_range(
+                    self.position,
+                    self.inverse_mass,
+                    self.sticks,
+                    self.lambda,
+                    s..s + 1,
+                    self.inv_h2,
+                    false,
+                    false,
+                );
+                self.scratch.warm.set(line.offset + k, 0.0);
+            }
         }
     }
 
     /// Stick `k` at the current iterate.
     #[inline(always)]
-    fn row(&self, line: &LineRef, k: usize) -> Row {
-        let s = line.sticks[k] as usize;
-        let (p, q) = (line.particles[k] as usize, line.particles[k + 1] as usize);
-        let d = self.position.get(q) - self.position.get(p);
-        let length = d.length();
-        let normal = if length > 1e-12 {
-            d / length
-        } else {
-            coincident_direction(s)
-        };
-        let c = length - self.sticks.rest_length[s];
-        let movable = self.inverse_mass[p] + self.inverse_mass[q] > 0.0;
-        let active = movable
-            && match self.sticks.kind[s] {
-                StickKind::Equal => true,
-                StickKind::AtMost => c > 0.0,
-                StickKind::AtLeast => c < 0.0,
-                StickKind::Torn => false,
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn row(&self, line: &LineRef, k: usize) -> Row {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            let s = line.sticks[k] as usize;
+            let (p, q) = (line.particles[k] as usize, line.particles[k + 1] as usize);
+            let d = self.position.get(q) - self.position.get(p);
+            let length = d.length();
+            let normal = if length > 1e-12 {
+                d / length
+            } else {
+                coincident_direction(s)
             };
-        Row { normal, c, active }
+            let c = length - self.sticks.rest_length[s];
+            let movable = self.inverse_mass[p] + self.inverse_mass[q] > 0.0;
+            let active = movable
+                && match self.sticks.kind[s] {
+                    StickKind::Equal => true,
+                    StickKind::AtMost => c > 0.0,
+                    StickKind::AtLeast => c < 0.0,
+                    StickKind::Torn => false,
+                };
+            Row { normal, c, active }
+        }
     }
 
     /// Forward traversal: each stick evaluated at the current iterate and its row eliminated
     /// (Thomas). Returns the largest `|C + α̃λ|/L` of the sticks in the system.
-    fn forward(&self, line: &LineRef) -> f64 {
-        let v = self.scratch;
-        let shake = v.mode.get(line.offset) == LineMode::Shake;
-        let direction = |k: usize, row: &Row| {
-            if shake {
-                v.start.get(line.offset + k)
-            } else {
-                row.normal
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn forward(&self, line: &LineRef) -> f64 {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            let v = self.scratch;
+            let shake = v.mode.get(line.offset) == LineMode::Shake;
+            let direction = |k: usize, row: &Row| {
+                if shake {
+                    v.start.get(line.offset + k)
+                } else {
+                    row.normal
+                }
+            };
+            let m = line.sticks.len();
+            let mut worst: f64 = 0.0;
+            let (mut upper_prev, mut rhs_prev) = (0.0, 0.0);
+            let mut r_prev = DVec3::ZERO;
+            let mut row = self.row(line, 0);
+            for k in 0..m {
+                let i = line.offset + k;
+                let next = (k + 1 < m).then(|| self.row(line, k + 1));
+                let r = direction(k, &row);
+                v.direction.set(i, r);
+                if !row.active {
+                    v.upper.set(i, 0.0);
+                    v.rhs.set(i, 0.0);
+                    (upper_prev, rhs_prev) = (0.0, 0.0);
+                } else {
+                    let s = line.sticks[k] as usize;
+                    let rest = self.sticks.rest_length[s];
+                    let wp = self.inverse_mass[line.particles[k] as usize];
+                    let wq = self.inverse_mass[line.particles[k + 1] as usize];
+                    let n = row.normal;
+                    let alpha = self.sticks.compliance[s] * self.inv_h2;
+                    let lambda = self.lambda.get(s);
+                    // The XPBD residual: a compliant stick is solved when C = −α̃λ, not C = 0.
+                    let residual = row.c + alpha * lambda;
+                    worst = worst.max(residual.abs() / rest.max(1e-12));
+                    let diagonal = (wp + wq) * n.dot(r) * (1.0 + REGULARISATION) + alpha;
+                    // (An inactive neighbour has an eliminated row of zeros and Δλ = 0, so its
+                    // coupling drops out by itself.)
+                    let lower = -wp * n.dot(r_prev);
+                    let up = next
+                        .as_ref()
+                        .map_or(0.0, |next| -wq * n.dot(direction(k + 1, next)));
+                    let rhs = -residual;
+                    let inverse = 1.0 / (diagonal - lower * upper_prev);
+                    upper_prev = up * inverse;
+                    rhs_prev = (rhs - lower * rhs_prev) * inverse;
+                    v.upper.set(i, upper_prev);
+                    v.rhs.set(i, rhs_prev);
+                }
+                r_prev = r;
+                if let Some(next) = next {
+                    row = next;
+                }
             }
-        };
-        let m = line.sticks.len();
-        let mut worst: f64 = 0.0;
-        let (mut upper_prev, mut rhs_prev) = (0.0, 0.0);
-        let mut r_prev = DVec3::ZERO;
-        let mut row = self.row(line, 0);
-        for k in 0..m {
-            let i = line.offset + k;
-            let next = (k + 1 < m).then(|| self.row(line, k + 1));
-            let r = direction(k, &row);
-            v.direction.set(i, r);
-            if !row.active {
-                v.upper.set(i, 0.0);
-                v.rhs.set(i, 0.0);
-                (upper_prev, rhs_prev) = (0.0, 0.0);
-            } else {
-                let s = line.sticks[k] as usize;
-                let rest = self.sticks.rest_length[s];
-                let wp = self.inverse_mass[line.particles[k] as usize];
-                let wq = self.inverse_mass[line.particles[k + 1] as usize];
-                let n = row.normal;
-                let alpha = self.sticks.compliance[s] * self.inv_h2;
-                let lambda = self.lambda.get(s);
-                // The XPBD residual: a compliant stick is solved when C = −α̃λ, not C = 0.
-                let residual = row.c + alpha * lambda;
-                worst = worst.max(residual.abs() / rest.max(1e-12));
-                let diagonal = (wp + wq) * n.dot(r) * (1.0 + REGULARISATION) + alpha;
-                // (An inactive neighbour has an eliminated row of zeros and Δλ = 0, so its
-                // coupling drops out by itself.)
-                let lower = -wp * n.dot(r_prev);
-                let up = next
-                    .as_ref()
-                    .map_or(0.0, |next| -wq * n.dot(direction(k + 1, next)));
-                let rhs = -residual;
-                let inverse = 1.0 / (diagonal - lower * upper_prev);
-                upper_prev = up * inverse;
-                rhs_prev = (rhs - lower * rhs_prev) * inverse;
-                v.upper.set(i, upper_prev);
-                v.rhs.set(i, rhs_prev);
-            }
-            r_prev = r;
-            if let Some(next) = next {
-                row = next;
-            }
+            worst
         }
-        worst
     }
 
     /// Backward traversal: `Δλ` by back substitution, λ updated and every particle moved by
     /// `w_j (r_{j−1} Δλ_{j−1} − r_j Δλ_j)`.
-    fn backward(&self, line: &LineRef) {
-        let v = self.scratch;
-        let m = line.sticks.len();
-        let mut after = DVec3::ZERO; // r_{k+1} Δλ_{k+1}
-        let mut d_next = 0.0;
-        for k in (0..m).rev() {
-            let i = line.offset + k;
-            let d = v.rhs.get(i) - v.upper.get(i) * d_next;
-            let d = if d.is_finite() { d } else { 0.0 };
-            let s = line.sticks[k] as usize;
-            self.lambda.set(s, self.lambda.get(s) + d);
-            let here = v.direction.get(i) * d;
-            self.move_particle(line.particles[k + 1], here - after);
-            after = here;
-            d_next = d;
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn backward(&self, line: &LineRef) {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            let v = self.scratch;
+            let m = line.sticks.len();
+            let mut after = DVec3::ZERO; // r_{k+1} Δλ_{k+1}
+            let mut d_next = 0.0;
+            for k in (0..m).rev() {
+                let i = line.offset + k;
+                let d = v.rhs.get(i) - v.upper.get(i) * d_next;
+                let d = if d.is_finite() { d } else { 0.0 };
+                let s = line.sticks[k] as usize;
+                self.lambda.set(s, self.lambda.get(s) + d);
+                let here = v.direction.get(i) * d;
+                self.move_particle(line.particles[k + 1], here - after);
+                after = here;
+                d_next = d;
+            }
+            self.move_particle(line.particles[0], -after);
         }
-        self.move_particle(line.particles[0], -after);
     }
 
-    fn move_particle(&self, p: u32, by: DVec3) {
-        let p = p as usize;
-        let w = self.inverse_mass[p];
-        if let Some(mirror) = self.mirror.filter(|_| w > 0.0) {
-            mirror.set(p, mirror.get(p) + by * w);
-        }
-        if w > 0.0 {
-            self.position.set(p, self.position.get(p) + by * w);
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn move_particle(&self, p: u32, by: DVec3) {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            let p = p as usize;
+            let w = self.inverse_mass[p];
+            if let Some(mirror) = self.mirror.filter(|_| w > 0.0) {
+                mirror.set(p, mirror.get(p) + by * w);
+            }
+            if w > 0.0 {
+                self.position.set(p, self.position.get(p) + by * w);
+            }
         }
     }
 
     /// Takes back everything SHAKE moved this substep and switches the line to the projection.
-    fn restart_without_shake(&self, line: &LineRef) {
-        self.take_back(line);
-        self.scratch.mode.set(line.offset, LineMode::Project);
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn restart_without_shake(&self, line: &LineRef) {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            self.take_back(line);
+            self.scratch.mode.set(line.offset, LineMode::Project);
+        }
     }
 
     /// Takes back every correction of this substep so far, when all were along the start
     /// directions (the warm start, SHAKE passes): positions are linear in λ there. λ = 0 after.
-    fn take_back(&self, line: &LineRef) {
-        let v = self.scratch;
-        let mut before = DVec3::ZERO;
-        for (j, &p) in line.particles.iter().enumerate() {
-            let after = match line.sticks.get(j) {
-                Some(&s) => {
-                    let lambda = self.lambda.get(s as usize);
-                    self.lambda.set(s as usize, 0.0);
-                    v.start.get(line.offset + j) * lambda
-                }
-                None => DVec3::ZERO,
-            };
-            self.move_particle(p, after - before);
-            before = after;
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`].
+    unsafe fn take_back(&self, line: &LineRef) {
+        // SAFETY: this task alone holds the line (this function's contract).
+        unsafe {
+            let v = self.scratch;
+            let mut before = DVec3::ZERO;
+            for (j, &p) in line.particles.iter().enumerate() {
+                let after = match line.sticks.get(j) {
+                    Some(&s) => {
+                        let lambda = self.lambda.get(s as usize);
+                        self.lambda.set(s as usize, 0.0);
+                        v.start.get(line.offset + j) * lambda
+                    }
+                    None => DVec3::ZERO,
+                };
+                self.move_particle(p, after - before);
+                before = after;
+            }
         }
     }
 }

@@ -7,6 +7,20 @@
 //! sorted by colour (see [`colouring`](super::colouring)) and, within a colour, by particle index
 //! (so a sweep walks memory forwards). The reordering is returned as a [`Reorder`] so callers can
 //! remap their own indices; the Bevy layer does this on every topology change.
+//!
+//! # Soundness
+//!
+//! The parallel step trusts the layout: islands share no particle, and the sticks of a batch
+//! marked [`Batch::independent`] share none. So no safe code can change it or hand the solver a
+//! stale one: the lists are [`ReadOnly`] outside the crate (sleep states change through
+//! [`Solver::set_asleep`] and [`Solver::wake`]); the particle indices the layout is built from
+//! ([`Sticks::ends`](super::Sticks::ends), [`Angles::particles`](super::Angles::particles),
+//! [`Tethers::particle`](super::Tethers::particle) and `anchor`) are read-only fields changed
+//! only by methods that take a fresh, never-reused stamp; and [`Islands`] remember the stamps
+//! and sizes they were built for. Every phase of the step checks them
+//! ([`Solver::is_organized`]) and, on a mismatch — an edit after [`Solver::organize`], or the
+//! islands of another solver assigned to this one — treats everything as one island solved on
+//! one thread, which is always safe (and the serial result). `tests/soundness.rs` checks this.
 
 use super::colouring::{Batch, MAX_COLOURS, colour_sticks};
 use super::lines::{LineSet, Method, cover, is_chain_or_tree};
@@ -119,17 +133,86 @@ impl Island {
 }
 
 /// The islands of the current topology.
+///
+/// Only the solver writes them ([`Solver::organize`], and the step's sleep states): the
+/// parallel step trusts that islands share no particle and that the sticks of a batch marked
+/// [`Batch::independent`] share none, so the lists are [`ReadOnly`] outside the crate, and the
+/// solver uses them only while they match the topology they were built for (see
+/// [`Solver::is_organized`]).
+///
+/// ```
+/// use bevy_verlet_physics::solver::Solver;
+/// use glam::DVec3;
+/// let mut solver = Solver::default();
+/// solver.add_particle(DVec3::ZERO, 1.0);
+/// solver.organize();
+/// assert_eq!(solver.islands.list.len(), 1);
+/// assert_eq!(solver.islands.lines().lines.len(), 0);
+/// ```
 #[derive(Clone, Debug, Default)]
 pub struct Islands {
     /// Every island, in order of their first particle.
-    pub list: Vec<Island>,
+    pub list: ReadOnly<Island>,
     /// Every colour batch, island after island.
-    pub batches: Vec<Batch>,
-    /// The lines of the islands solved by [`Method::Lines`].
-    pub lines: LineSet,
+    pub batches: ReadOnly<Batch>,
+    /// The lines of the islands solved by [`Method::Lines`] (read with [`Islands::lines`]).
+    pub(crate) lines: LineSet,
     /// Sizes `[particles, sticks, angles, pins]` the islands were built for; on a mismatch the
     /// solver treats everything as one island in array order.
     pub(crate) signature: [usize; 4],
+    /// Stamps of the sticks', angle constraints' and tethers' particle indices the islands
+    /// were built for (see [`next_stamp`]); checked like the signature.
+    pub(crate) stamps: [u64; 3],
+}
+
+/// A list that the solver builds and everyone else only reads: it dereferences to a slice.
+///
+/// ```
+/// use bevy_verlet_physics::solver::Solver;
+/// use glam::DVec3;
+/// let mut solver = Solver::default();
+/// solver.add_particle(DVec3::ZERO, 1.0);
+/// solver.organize();
+/// let list = &solver.islands.list;
+/// assert_eq!(list.len(), 1);
+/// assert_eq!(list[0].particles, 0..1);
+/// assert_eq!(list.iter().count(), 1);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReadOnly<T>(pub(crate) Vec<T>);
+
+impl<T> Default for ReadOnly<T> {
+    fn default() -> Self {
+        Self(Vec::new())
+    }
+}
+
+impl<T> std::ops::Deref for ReadOnly<T> {
+    type Target = [T];
+
+    fn deref(&self) -> &[T] {
+        &self.0
+    }
+}
+
+impl<'a, T> IntoIterator for &'a ReadOnly<T> {
+    type Item = &'a T;
+    type IntoIter = std::slice::Iter<'a, T>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.iter()
+    }
+}
+
+/// A fresh topology stamp, never handed out before (by any solver): [`Sticks`](super::Sticks),
+/// [`Angles`](super::Angles) and [`Tethers`](super::Tethers) take one on every change of the
+/// particle indices they hold, and [`Islands`] remember the stamps they were built for. Equal
+/// stamps therefore mean equal indices (a clone keeps its stamp and its contents), so a layout
+/// built for other indices — edited after [`Solver::organize`], or taken from another solver —
+/// is never used.
+pub(crate) fn next_stamp() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Islands with at least this many sticks, and at least 1.5 sticks per particle (meshes such as
@@ -143,6 +226,16 @@ pub struct Islands {
 pub const COLOUR_MIN_STICKS: usize = 2048;
 
 impl Islands {
+    /// The lines of the islands solved by [`Method::Lines`].
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Islands;
+    /// assert!(Islands::default().lines().lines.is_empty());
+    /// ```
+    pub fn lines(&self) -> &LineSet {
+        &self.lines
+    }
+
     /// Index of the island that holds particle `slot` (islands are contiguous and in order).
     pub fn of_particle(&self, slot: u32) -> Option<usize> {
         let k = self
@@ -201,11 +294,61 @@ impl Solver {
     /// let reorder = solver.organize();
     /// assert_eq!(solver.islands.list.len(), 2); // {0, 2} and {1}
     /// assert_eq!(reorder.particles, vec![0, 2, 1]); // particle 2 now sits in slot 1
-    /// assert_eq!(solver.sticks.ends[0], [0, 1]);
+    /// assert_eq!(solver.sticks.ends()[0], [0, 1]);
     /// ```
     pub fn organize(&mut self) -> Reorder {
+        self.tethered.resize(self.particles.len(), false);
+        let grouping = self.group_particles();
+        let (order, colour) = self.order_sticks(&grouping);
+        self.order_angles(&grouping);
+        self.order_pins();
+        self.build_island_list(&grouping, &colour);
+        self.rebuild_tethers();
+        self.resolve_island_settings();
+        self.build_lines();
+        self.islands.signature = self.signature();
+        self.islands.stamps = self.stamps();
+        Reorder {
+            particles: grouping.from,
+            sticks: order,
+        }
+    }
+
+    /// Particles: finds the islands (union–find over sticks and angle constraints) and sorts
+    /// the particles by island, keeping their order within an island.
+    fn group_particles(&mut self) -> Grouping {
         let n = self.particles.len();
-        self.tethered.resize(n, false);
+        let (island_of, count) = self.components();
+        // A counting sort by island.
+        let mut start = vec![0u32; count + 1];
+        for &k in &island_of {
+            start[k as usize + 1] += 1;
+        }
+        for k in 0..count {
+            start[k + 1] += start[k];
+        }
+        let mut fill = start.clone();
+        let mut from = vec![0u32; n];
+        let mut new_of = vec![0u32; n];
+        for old in 0..n {
+            let k = island_of[old] as usize;
+            from[fill[k] as usize] = old as u32;
+            new_of[old] = fill[k];
+            fill[k] += 1;
+        }
+        self.permute_particles(&from, &new_of);
+        let island = from.iter().map(|&old| island_of[old as usize]).collect();
+        Grouping {
+            island,
+            start,
+            from,
+        }
+    }
+
+    /// The island number of every particle (numbered in order of their first particle) and
+    /// how many islands there are.
+    fn components(&self) -> (Vec<u32>, usize) {
+        let n = self.particles.len();
         let mut parent: Vec<u32> = (0..n as u32).collect();
         for (i, &[a, b]) in self.sticks.ends.iter().enumerate() {
             if self.sticks.kind[i] != StickKind::Torn {
@@ -216,8 +359,6 @@ impl Solver {
             union(&mut parent, a, b);
             union(&mut parent, b, c);
         }
-        // Island numbers in order of their first particle; a counting sort keeps the order of
-        // particles within an island.
         let mut island_of_root = vec![u32::MAX; n];
         let mut island_of = vec![0u32; n];
         let mut count = 0u32;
@@ -229,36 +370,18 @@ impl Solver {
             }
             island_of[i as usize] = island_of_root[root];
         }
-        let mut start = vec![0u32; count as usize + 1];
-        for &k in &island_of {
-            start[k as usize + 1] += 1;
-        }
-        for k in 0..count as usize {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut particle_from = vec![0u32; n];
-        let mut new_of = vec![0u32; n];
-        for old in 0..n {
-            let k = island_of[old] as usize;
-            particle_from[fill[k] as usize] = old as u32;
-            new_of[old] = fill[k];
-            fill[k] += 1;
-        }
-        self.permute_particles(&particle_from, &new_of);
-        let island_of_slot = |slot: u32| island_of[particle_from[slot as usize] as usize];
+        (island_of, count as usize)
+    }
 
-        // Sticks: by island (torn ones last, outside every island). Large islands are sorted by
-        // colour, then by ends; small ones keep their order (see `COLOUR_MIN_STICKS`).
+    /// Sticks: by island (torn ones last, outside every island). Large islands are sorted by
+    /// colour, then by ends; small ones keep their order (see `COLOUR_MIN_STICKS`). Returns
+    /// the order (`order[new] = old`) and every stick's colour by new index ([`MAX_COLOURS`]:
+    /// one serial batch).
+    fn order_sticks(&mut self, grouping: &Grouping) -> (Vec<u32>, Vec<u32>) {
         let m = self.sticks.len();
-        let island_of_stick = |i: u32| {
-            if self.sticks.kind[i as usize] == StickKind::Torn {
-                u32::MAX
-            } else {
-                island_of_slot(self.sticks.ends[i as usize][0])
-            }
-        };
-        let mut sticks_in = vec![0usize; count as usize];
+        let sticks = &self.sticks;
+        let island_of_stick = |i: u32| grouping.of_stick(sticks, i as usize) as u32;
+        let mut sticks_in = vec![0usize; grouping.count()];
         for i in 0..m as u32 {
             if let Some(n) = sticks_in.get_mut(island_of_stick(i) as usize) {
                 *n += 1;
@@ -268,12 +391,12 @@ impl Solver {
             let Some(&sticks) = sticks_in.get(island as usize) else {
                 return false;
             };
-            let particles = (start[island as usize + 1] - start[island as usize]) as usize;
+            let particles = grouping.particles(island as usize).len();
             sticks >= COLOUR_MIN_STICKS && 2 * sticks >= 3 * particles
         };
         let key = |i: u32| {
             let island = island_of_stick(i);
-            let [a, b] = self.sticks.ends[i as usize];
+            let [a, b] = sticks.ends[i as usize];
             if coloured(island) {
                 (island, a.min(b), a.max(b))
             } else {
@@ -282,72 +405,68 @@ impl Solver {
         };
         let mut order: Vec<u32> = (0..m as u32).collect();
         order.sort_by_key(|&i| key(i));
-        let mut used = vec![0u64; n];
+        let mut used = vec![0u64; self.particles.len()];
         let mut colour = Vec::with_capacity(m);
-        colour_sticks(&self.sticks.ends, &order, &mut used, &mut colour);
+        colour_sticks(&sticks.ends, &order, &mut used, &mut colour);
         let mut colour_of = vec![0u32; m];
         for (&stick, &c) in order.iter().zip(&colour) {
-            if coloured(island_of_stick(stick)) {
-                colour_of[stick as usize] = c;
-            } else {
-                colour_of[stick as usize] = MAX_COLOURS; // one serial batch
-            }
+            let serial = !coloured(island_of_stick(stick));
+            colour_of[stick as usize] = if serial { MAX_COLOURS } else { c };
         }
         // (Stable: within a colour the (island, ends) order stays.)
         order.sort_by_key(|&i| (island_of_stick(i), colour_of[i as usize]));
         self.permute_sticks(&order);
+        let colour = order.iter().map(|&old| colour_of[old as usize]).collect();
+        (order, colour)
+    }
 
-        // Angle constraints by island (stable).
-        let mut angle_order: Vec<u32> = (0..self.angles.len() as u32).collect();
-        angle_order.sort_by_key(|&i| island_of_slot(self.angles.particles[i as usize][1]));
+    /// Angle constraints: by island (stable).
+    fn order_angles(&mut self, grouping: &Grouping) {
+        let island_of = |i: u32| grouping.island[self.angles.particles[i as usize][1] as usize];
+        let mut order: Vec<u32> = (0..self.angles.len() as u32).collect();
+        order.sort_by_key(|&i| island_of(i));
         let angles = &mut self.angles;
-        permute(&mut angles.particles, &angle_order);
-        permute(&mut angles.rest_angle, &angle_order);
-        permute(&mut angles.compliance, &angle_order);
-        permute(&mut angles.axis, &angle_order);
-        permute(&mut angles.lambda, &angle_order);
+        permute(&mut angles.particles, &order);
+        permute(&mut angles.rest_angle, &order);
+        permute(&mut angles.compliance, &order);
+        permute(&mut angles.axis, &order);
+        permute(&mut angles.lambda, &order);
+        angles.stamp = next_stamp();
+    }
 
-        // Pins by particle.
-        let mut pin_order: Vec<u32> = (0..self.pins.len() as u32).collect();
-        pin_order.sort_by_key(|&i| self.pins.particle[i as usize]);
-        permute(&mut self.pins.particle, &pin_order);
-        permute(&mut self.pins.from, &pin_order);
-        permute(&mut self.pins.to, &pin_order);
+    /// Pins: by particle.
+    fn order_pins(&mut self) {
+        let mut order: Vec<u32> = (0..self.pins.len() as u32).collect();
+        order.sort_by_key(|&i| self.pins.particle[i as usize]);
+        permute(&mut self.pins.particle, &order);
+        permute(&mut self.pins.from, &order);
+        permute(&mut self.pins.to, &order);
+    }
 
-        // The islands' ranges.
-        let signature = self.signature();
+    /// Islands and colour batches: the ranges of the ordered tables (tethers are assigned by
+    /// [`Solver::rebuild_tethers`], lines by `build_lines`).
+    fn build_island_list(&mut self, grouping: &Grouping, colour: &[u32]) {
         let islands = &mut self.islands;
-        islands.list.clear();
-        islands.batches.clear();
+        islands.list.0.clear();
+        islands.batches.0.clear();
         let (mut stick, mut angle, mut pin) = (0usize, 0usize, 0usize);
-        for k in 0..count as usize {
-            let particles = start[k]..start[k + 1];
+        for k in 0..grouping.count() {
+            let particles = grouping.particles(k);
             let first_stick = stick;
             let first_batch = islands.batches.len() as u32;
-            while stick < m && order_island(&self.sticks, stick, &island_of, &particle_from) == k {
-                let c = colour_of[order[stick] as usize];
+            while grouping.of_stick(&self.sticks, stick) == k {
                 let batch_start = stick;
-                while stick < m
-                    && order_island(&self.sticks, stick, &island_of, &particle_from) == k
-                    && colour_of[order[stick] as usize] == c
+                while grouping.of_stick(&self.sticks, stick) == k
+                    && colour[stick] == colour[batch_start]
                 {
                     stick += 1;
                 }
-                let sticks = &self.sticks;
-                let rigid = (batch_start..stick).all(|i| {
-                    sticks.kind[i] == StickKind::Equal
-                        && sticks.compliance[i] == 0.0
-                        && !sticks.tear_strain[i].is_finite()
-                });
-                islands.batches.push(Batch {
-                    sticks: batch_start as u32..stick as u32,
-                    independent: c < MAX_COLOURS,
-                    rigid,
-                });
+                let batch = batch(&self.sticks, batch_start..stick, colour[batch_start]);
+                islands.batches.0.push(batch);
             }
             let first_angle = angle;
             while angle < self.angles.len()
-                && island_of_slot(self.angles.particles[angle][1]) as usize == k
+                && grouping.island[self.angles.particles[angle][1] as usize] as usize == k
             {
                 angle += 1;
             }
@@ -355,7 +474,7 @@ impl Solver {
             while pin < self.pins.len() && self.pins.particle[pin] < particles.end {
                 pin += 1;
             }
-            islands.list.push(Island {
+            islands.list.0.push(Island {
                 particles,
                 sticks: first_stick as u32..stick as u32,
                 batches: first_batch..islands.batches.len() as u32,
@@ -363,14 +482,6 @@ impl Solver {
                 pins: first_pin as u32..pin as u32,
                 ..Island::default()
             });
-        }
-        islands.signature = signature;
-        self.rebuild_tethers();
-        self.resolve_island_settings();
-        self.build_lines();
-        Reorder {
-            particles: particle_from,
-            sticks: order,
         }
     }
 
@@ -387,7 +498,7 @@ impl Solver {
     /// solver.add_particle(DVec3::ZERO, 1.0);
     /// solver.particles.handle[0] = 7;
     /// solver.organize();
-    /// solver.islands.list[0].asleep = true;
+    /// solver.set_asleep(0, true);
     /// let (old, handles) = (solver.islands.clone(), solver.particles.handle.clone());
     /// solver.organize(); // (a rebuild)
     /// solver.keep_sleep_state(&old, &handles);
@@ -409,7 +520,7 @@ impl Solver {
         }
         let handles = &self.particles.handle;
         let length = |r: &Range<u32>| r.end - r.start;
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             let first = handles[island.particles.start as usize];
             let Some(&k) = old_island_of.get(&first) else {
                 continue;
@@ -440,9 +551,34 @@ impl Solver {
         ]
     }
 
-    /// `true` when [`Solver::islands`] describes the current arrays.
+    /// The stamps of the particle indices the islands depend on (see [`next_stamp`]).
+    pub(crate) fn stamps(&self) -> [u64; 3] {
+        [self.sticks.stamp, self.angles.stamp, self.tethers.stamp]
+    }
+
+    /// `true` when [`Solver::islands`] describes the current arrays: built by
+    /// [`Solver::organize`] (or the step's one-island fallback) for these sizes and these
+    /// stick, angle and tether indices. The step uses the islands only then — otherwise it
+    /// treats everything as one island, which is always safe — so no edit can make it split
+    /// work by a stale layout.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Solver, StickKind};
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// for x in 0..3 {
+    ///     solver.add_particle(DVec3::X * x as f64, 1.0);
+    /// }
+    /// solver.sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// solver.organize();
+    /// assert!(solver.is_organized());
+    /// solver.sticks.set_ends(0, [1, 2]);
+    /// assert!(!solver.is_organized());
+    /// ```
     pub fn is_organized(&self) -> bool {
-        self.islands.signature == self.signature() && !self.islands.list.is_empty()
+        self.islands.signature == self.signature()
+            && self.islands.stamps == self.stamps()
+            && !self.islands.list.is_empty()
     }
 
     /// Treats everything as one island in array order (the solver was not organized since its
@@ -452,14 +588,14 @@ impl Solver {
         let islands = &mut self.islands;
         let asleep = islands.list.first().is_some_and(|i| i.asleep) && islands.list.len() == 1;
         let calm_time = islands.list.first().map_or(0.0, |i| i.calm_time);
-        islands.list.clear();
-        islands.batches.clear();
-        islands.batches.push(Batch {
+        islands.list.0.clear();
+        islands.batches.0.clear();
+        islands.batches.0.push(Batch {
             sticks: 0..self.sticks.len() as u32,
             independent: false,
             rigid: false,
         });
-        islands.list.push(Island {
+        islands.list.0.push(Island {
             particles: 0..self.particles.len() as u32,
             sticks: 0..self.sticks.len() as u32,
             batches: 0..1,
@@ -475,13 +611,14 @@ impl Solver {
         });
         islands.lines.clear();
         islands.signature = signature;
+        self.islands.stamps = self.stamps();
         self.resolve_island_settings();
     }
 
     /// Gives every island the tethers of its particles (tethers are sorted by particle).
     pub(crate) fn assign_tether_ranges(&mut self) {
         let particle = &self.tethers.particle;
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             let start = particle.partition_point(|&p| p < island.particles.start);
             let end = particle.partition_point(|&p| p < island.particles.end);
             island.tethers = start as u32..end as u32;
@@ -494,18 +631,18 @@ impl Solver {
         self.line_builder.incidence.build(&self.sticks, n);
         let islands = &mut self.islands;
         islands.lines.clear();
-        for island in &mut islands.list {
+        for island in &mut islands.list.0 {
             island.method = Method::Auto; // (no override yet)
             island.line_groups = 0..0;
             island.loose = 0..0;
         }
         for &(particle, method) in &self.island_methods {
             if let Some(k) = islands.of_particle(particle) {
-                islands.list[k].method = method;
+                islands.list.0[k].method = method;
             }
         }
         let builder = &mut self.line_builder;
-        for island in &mut islands.list {
+        for island in &mut islands.list.0 {
             let particles = island.particles.clone();
             let sticks = (island.sticks.end - island.sticks.start) as usize;
             let method = match island.method {
@@ -544,12 +681,12 @@ impl Solver {
 
     /// Sets [`Island::settings`] from [`Solver::island_settings`] (the larger counts win).
     fn resolve_island_settings(&mut self) {
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             island.settings = None;
         }
         for &(particle, settings) in &self.island_settings {
             if let Some(k) = self.islands.of_particle(particle) {
-                let island = &mut self.islands.list[k];
+                let island = &mut self.islands.list.0[k];
                 island.settings = Some(island.settings.map_or(settings, |s| s.max(settings)));
             }
         }
@@ -569,11 +706,14 @@ impl Solver {
         self.pins.particle.iter_mut().for_each(remap);
         self.island_settings.iter_mut().for_each(|(i, _)| remap(i));
         self.island_methods.iter_mut().for_each(|(i, _)| remap(i));
+        self.sticks.stamp = next_stamp();
+        self.angles.stamp = next_stamp();
     }
 
     fn permute_sticks(&mut self, from: &[u32]) {
         let s = &mut self.sticks;
         permute(&mut s.ends, from);
+        s.stamp = next_stamp();
         permute(&mut s.rest_length, from);
         permute(&mut s.compliance, from);
         permute(&mut s.kind, from);
@@ -589,15 +729,44 @@ impl Solver {
     }
 }
 
-/// Island of the stick now at index `i` (`usize::MAX` for a torn one).
-fn order_island(
-    sticks: &super::Sticks,
-    i: usize,
-    island_of: &[u32],
-    particle_from: &[u32],
-) -> usize {
-    if sticks.kind[i] == StickKind::Torn {
-        return usize::MAX;
+/// The colour batch of the sticks in `sticks` (all of colour `colour`).
+fn batch(sticks: &super::Sticks, range: Range<usize>, colour: u32) -> Batch {
+    let rigid = range.clone().all(|i| {
+        sticks.kind[i] == StickKind::Equal
+            && sticks.compliance[i] == 0.0
+            && !sticks.tear_strain[i].is_finite()
+    });
+    Batch {
+        sticks: range.start as u32..range.end as u32,
+        independent: colour < MAX_COLOURS,
+        rigid,
     }
-    island_of[particle_from[sticks.ends[i][0] as usize] as usize] as usize
+}
+
+/// Particles grouped by island (see `Solver::group_particles`).
+struct Grouping {
+    /// `island[slot]`: the island of the particle now in `slot`.
+    island: Vec<u32>,
+    /// `start[k]..start[k + 1]`: the slots of island `k`.
+    start: Vec<u32>,
+    /// `from[new] = old` (see [`Reorder::particles`]).
+    from: Vec<u32>,
+}
+
+impl Grouping {
+    fn count(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    fn particles(&self, k: usize) -> Range<u32> {
+        self.start[k]..self.start[k + 1]
+    }
+
+    /// Island of stick `i` (`usize::MAX` for a torn one or past the end).
+    fn of_stick(&self, sticks: &super::Sticks, i: usize) -> usize {
+        match sticks.kind.get(i) {
+            Some(StickKind::Torn) | None => usize::MAX,
+            Some(_) => self.island[sticks.ends[i][0] as usize] as usize,
+        }
+    }
 }

@@ -28,8 +28,8 @@
 //! solver.organize();
 //! let island = &solver.islands.list[0];
 //! assert_eq!(island.method, Method::Lines);
-//! assert_eq!(solver.islands.lines.lines.len(), 1);
-//! assert_eq!(solver.islands.lines.sticks.len(), 3);
+//! assert_eq!(solver.islands.lines().lines.len(), 1);
+//! assert_eq!(solver.islands.lines().sticks.len(), 3);
 //! ```
 
 use super::{Particles, StickKind, Sticks};

@@ -84,7 +84,7 @@ pub use angles::{Angles, relax_angles};
 pub use colliders::{Collider, Shape, constrain};
 pub use colouring::Batch;
 pub use integrate::{consistent_previous, integrate};
-pub use islands::{Island, IslandSettings, Islands, Reorder, Sleep};
+pub use islands::{Island, IslandSettings, Islands, ReadOnly, Reorder, Sleep};
 pub use lines::{Line, LineSet, Method};
 pub use parallel::{Executor, ScopedThreads, Serial};
 pub use particles::Particles;
@@ -204,7 +204,8 @@ pub struct Solver {
     pub colliders: Vec<Collider>,
     /// Indices of the sticks torn by the last [`Solver::step`].
     pub torn: Vec<u32>,
-    /// Islands, their colour batches and sleep states (see [`Solver::organize`]).
+    /// Islands, their colour batches and sleep states (see [`Solver::organize`]): read-only
+    /// lists, used by the step only while they match the topology ([`Solver::is_organized`]).
     pub islands: Islands,
     /// Per-island overrides: the island containing the particle uses these settings (applied
     /// by [`Solver::organize`]).
@@ -246,8 +247,8 @@ impl Solver {
         self.island_settings.clear();
         self.island_methods.clear();
         self.wake_requests.clear();
-        self.islands.list.clear();
-        self.islands.batches.clear();
+        self.islands.list.0.clear();
+        self.islands.batches.0.clear();
         self.islands.lines.clear();
     }
 
@@ -270,10 +271,26 @@ impl Solver {
 
     /// Recomputes the tethers of the particles flagged in [`Solver::tethered`].
     pub fn rebuild_tethers(&mut self) {
+        let organized = self.is_organized();
         self.tethered.resize(self.particles.len(), false);
         self.tethers
             .rebuild(&self.particles, &self.sticks, &self.pins, &self.tethered);
         self.assign_tether_ranges();
+        // Islands that matched the topology still do if every tether stays in one island (a
+        // torn stick made whole again could join two).
+        if organized && self.tethers_within_islands() {
+            self.islands.stamps = self.stamps();
+        }
+    }
+
+    /// `true` when every tether joins two particles of one island.
+    fn tethers_within_islands(&self) -> bool {
+        let islands = &self.islands;
+        let tethers = &self.tethers;
+        (0..tethers.len()).all(|i| {
+            let island = islands.of_particle(tethers.particle[i]);
+            island.is_some() && island == islands.of_particle(tethers.anchor[i])
+        })
     }
 
     /// How many Newton passes the line solves have taken since the solver was made (a cost

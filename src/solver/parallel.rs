@@ -5,6 +5,12 @@
 //! construction — islands share no particle, the sticks of one colour batch share no particle —
 //! so the result is bit-for-bit the same whatever the executor and thread count.
 //!
+//! [`Executor`] is a safe trait, so the solver does not trust it: it never relies on the job
+//! index an executor passes. Each call claims its jobs from an atomic counter, so a job the
+//! executor runs twice (even at the same time) or with a wrong index still runs exactly once,
+//! and one that returns without running anything makes the step panic instead of silently
+//! skipping work (`tests/soundness.rs`).
+//!
 //! Work is split only when it is large enough to pay for the hand-off (see the `PARALLEL_*`
 //! thresholds): a scene that fits one thread runs exactly the serial code.
 

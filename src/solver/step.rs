@@ -21,13 +21,13 @@ use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
     PARALLEL_MIN_WORK_PER_JOB, Serial, job_count, part,
 };
-use super::shared::Shared;
+use super::shared::SharedSlice;
 use super::sticks::relax_stick_range;
 use super::tethers::relax_tether_range;
 use super::{Island, Solver, StepConfig, Substep, tear};
 use glam::DVec3;
 use std::ops::Range;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Global substep `index` of `count` in the fixed step configured by `config`.
 ///
@@ -85,10 +85,10 @@ impl GlobalSubstep {
 
 /// Positions, previous positions, multipliers and line scratch, shareable between jobs.
 struct Views<'a> {
-    position: Shared<'a, DVec3>,
-    previous: Shared<'a, DVec3>,
-    stick_lambda: Shared<'a, f64>,
-    angle_lambda: Shared<'a, f64>,
+    position: SharedSlice<'a, DVec3>,
+    previous: SharedSlice<'a, DVec3>,
+    stick_lambda: SharedSlice<'a, f64>,
+    angle_lambda: SharedSlice<'a, f64>,
     lines: LineViews<'a>,
 }
 
@@ -143,9 +143,7 @@ impl Solver {
     /// changed since [`Solver::organize`]), wakes islands that were touched, and returns how many
     /// global substeps the step takes (see [`GlobalSubstep`]).
     pub fn begin_step(&mut self, config: &StepConfig) -> u32 {
-        if !self.is_organized() {
-            self.use_one_island();
-        }
+        self.check_layout();
         let changed = self.last_config != Some(*config) || self.colliders != self.last_colliders;
         if changed || config.sleep.is_none() {
             self.wake_all();
@@ -154,7 +152,7 @@ impl Solver {
         self.last_colliders.clone_from(&self.colliders);
         for i in 0..self.wake_requests.len() {
             if let Some(k) = self.islands.of_particle(self.wake_requests[i]) {
-                let island = &mut self.islands.list[k];
+                let island = &mut self.islands.list.0[k];
                 island.asleep = false;
                 island.calm_time = 0.0;
             }
@@ -162,7 +160,7 @@ impl Solver {
         self.wake_requests.clear();
         let pins = &self.pins;
         let mut count = 1;
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             if island.asleep && pins.moving(range(&island.pins)) {
                 island.asleep = false;
                 island.calm_time = 0.0;
@@ -181,9 +179,37 @@ impl Solver {
         self.wake_requests.push(slot);
     }
 
+    /// Puts island `island` to sleep (at rest: its previous positions become its positions) or
+    /// wakes it; out-of-range indices are ignored.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Solver;
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// solver.add_particle(DVec3::ZERO, 1.0);
+    /// solver.organize();
+    /// solver.set_asleep(0, true);
+    /// assert_eq!(solver.sleeping_islands(), 1);
+    /// ```
+    pub fn set_asleep(&mut self, island: usize, asleep: bool) {
+        let Some(island) = self.islands.list.0.get_mut(island) else {
+            return;
+        };
+        island.asleep = asleep;
+        island.calm_time = 0.0;
+        if asleep {
+            let p = &mut self.particles;
+            for i in range(&island.particles) {
+                if let (Some(&x), Some(previous)) = (p.position.get(i), p.previous.get_mut(i)) {
+                    *previous = x;
+                }
+            }
+        }
+    }
+
     /// Wakes every island.
     pub fn wake_all(&mut self) {
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             island.asleep = false;
             island.calm_time = 0.0;
         }
@@ -197,14 +223,24 @@ impl Solver {
     /// First phase of a substep: Verlet integration, kinematic pins placed on their interpolated
     /// targets, XPBD multipliers reset.
     pub fn integrate_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
+        self.check_layout();
         let (mut taken, islands) = self.take();
         {
             let views = views(&mut taken);
             let particles = &self.particles;
             for_due_particles(&islands.list, global, executor, &|slots, substep| {
+                // SAFETY: `slots` is this job's part of one island's particles: parts of one
+                // range are disjoint, islands are disjoint (the layout matches the topology:
+                // `check_layout`), and each part runs once (`run_jobs`).
+                let (position, previous) = unsafe {
+                    (
+                        views.position.part(slots.clone()),
+                        views.previous.part(slots.clone()),
+                    )
+                };
                 integrate_range(
-                    &views.position,
-                    &views.previous,
+                    &position,
+                    &previous,
                     &particles.inverse_mass,
                     slots,
                     substep.gravity,
@@ -212,16 +248,24 @@ impl Solver {
                     substep.damping_factor,
                 );
             });
+            // SAFETY: no job runs any more (serial from here on).
+            let (position, stick_lambda, angle_lambda) = unsafe {
+                (
+                    views.position.part(0..views.position.len()),
+                    views.stick_lambda.part(0..views.stick_lambda.len()),
+                    views.angle_lambda.part(0..views.angle_lambda.len()),
+                )
+            };
             for (island, substep) in due(&islands.list, global) {
                 let fraction = substep.index as f64 / substep.count as f64;
                 self.pins
-                    .drive_range(&views.position, range(&island.pins), fraction);
+                    .drive_range(&position, range(&island.pins), fraction);
                 if substep.accumulate {
                     for i in range(&island.sticks) {
-                        views.stick_lambda.set(i, 0.0);
+                        stick_lambda.set(i, 0.0);
                     }
                     for i in range(&island.angles) {
-                        views.angle_lambda.set(i, 0.0);
+                        angle_lambda.set(i, 0.0);
                     }
                 }
             }
@@ -232,6 +276,7 @@ impl Solver {
     /// Second phase of a substep: `iterations` relaxation sweeps (sticks by colour, angle
     /// constraints, tethers) per due island.
     pub fn relax_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
+        self.check_layout();
         let threads = executor.threads();
         // Large coloured islands are solved on every thread; the rest in groups.
         let big = |island: &Island, substep: &Substep, batches: &[super::Batch]| {
@@ -271,16 +316,15 @@ impl Solver {
                 for (island, substep) in small() {
                     // An island belongs to the job its first unit of work falls in.
                     if done * jobs / total.max(1) == job {
-                        self.relax_island(&views, &islands, island, &substep);
+                        // SAFETY: each island belongs to one job, each job runs once
+                        // (`run_jobs`), islands share nothing (the layout matches the
+                        // topology: `check_layout`), and the large islands ran before.
+                        unsafe { self.relax_island(&views, &islands, island, &substep) };
                     }
                     done += work(island, &substep);
                 }
             };
-            if jobs > 1 {
-                executor.run(jobs, &relax_group);
-            } else {
-                relax_group(0);
-            }
+            run_jobs(executor, jobs, &relax_group);
         }
         self.give_back(taken, islands);
     }
@@ -290,15 +334,23 @@ impl Solver {
         if self.colliders.is_empty() {
             return;
         }
+        self.check_layout();
         let (mut taken, islands) = self.take();
         {
             let views = views(&mut taken);
             let particles = &self.particles;
             for_due_particles(&islands.list, global, executor, &|slots, substep| {
                 let gravity_step = substep.gravity.length() * substep.h * substep.h;
+                // SAFETY: as for the integration: this job's part of one island's particles.
+                let (position, previous) = unsafe {
+                    (
+                        views.position.part(slots.clone()),
+                        views.previous.part(slots.clone()),
+                    )
+                };
                 constrain_range(
-                    &views.position,
-                    &views.previous,
+                    &position,
+                    &previous,
                     (&particles.inverse_mass, &particles.radius),
                     &self.colliders,
                     slots,
@@ -324,7 +376,7 @@ impl Solver {
         let torn = tear(&self.particles, &mut self.sticks, &mut self.torn);
         if torn > 0 {
             // Torn sticks must be skipped: no batch is known all-rigid any more.
-            for batch in &mut self.islands.batches {
+            for batch in &mut self.islands.batches.0 {
                 batch.rigid = false;
             }
             // A torn island is no longer calm.
@@ -345,7 +397,7 @@ impl Solver {
             return;
         };
         let p = &mut self.particles;
-        for island in &mut self.islands.list {
+        for island in &mut self.islands.list.0 {
             if island.asleep {
                 continue;
             }
@@ -372,7 +424,11 @@ impl Solver {
 
     /// One island's relaxation on the calling thread: its sticks in order, then angles and
     /// tethers, `iterations` times.
-    fn relax_island(
+    ///
+    /// # Safety
+    /// No other task accesses the island's particles, its sticks' and angle constraints'
+    /// multipliers or its lines' scratch while this runs.
+    unsafe fn relax_island(
         &self,
         views: &Views,
         islands: &super::Islands,
@@ -380,20 +436,27 @@ impl Solver {
         substep: &Substep,
     ) {
         for round in 0..substep.iterations {
-            if island.method == Method::Lines {
-                self.solve_lines_of(views, islands, island, substep, round == 0);
-            } else {
-                for batch in &islands.batches[range(&island.batches)] {
-                    self.relax_sticks_of(views, substep, batch);
+            // SAFETY: everything below belongs to this island, which this task holds (caller).
+            unsafe {
+                if island.method == Method::Lines {
+                    self.solve_lines_of(views, islands, island, substep, round == 0);
+                } else {
+                    for batch in &islands.batches[range(&island.batches)] {
+                        self.relax_sticks_of(views, substep, batch);
+                    }
                 }
+                self.relax_rest_of(views, island, substep);
             }
-            self.relax_rest_of(views, island, substep);
         }
     }
 
     /// One round of an island's lines (group after group: block Gauss–Seidel over lines), then
     /// its loose sticks.
-    fn solve_lines_of(
+    ///
+    /// # Safety
+    /// No other task accesses the island's particles, its sticks' and angle constraints'
+    /// multipliers or its lines' scratch while this runs.
+    unsafe fn solve_lines_of(
         &self,
         views: &Views,
         islands: &super::Islands,
@@ -417,13 +480,16 @@ impl Solver {
         let mut passes = 0;
         for group in &set.groups[range(&island.line_groups)] {
             for line in &set.lines[range(group)] {
-                passes += solve.solve(&LineRef::of(line, set)) as u64;
+                // SAFETY: the line's particles, sticks and scratch are the island's (the
+                // layout matches the topology), which this task holds (caller).
+                passes += unsafe { solve.solve(&LineRef::of(line, set)) } as u64;
             }
         }
         self.line_passes.0.fetch_add(passes, Ordering::Relaxed);
         for &stick in &set.loose[range(&island.loose)] {
             let stick = stick as usize;
-            self.relax_stick_part(views, substep, stick..stick + 1, false);
+            // SAFETY: a stick of the island, which this task holds (caller).
+            unsafe { self.relax_stick_part(views, substep, stick..stick + 1, false) };
         }
     }
 
@@ -463,12 +529,19 @@ impl Solver {
                     if chunk >= chunks {
                         break;
                     }
-                    match batches.get(k) {
-                        Some(batch) => {
-                            let sticks = part(range(&batch.sticks), chunk, chunks);
-                            self.relax_stick_part(views, substep, sticks, batch.rigid);
+                    // SAFETY: only this step's chunks run now (every thread waits for all of them
+                    // before the next step) and each chunk runs once (claimed). The chunks of an
+                    // independent batch share no particle or stick (the layout matches the
+                    // topology: `check_layout`); any other step is one chunk. The island is
+                    // disjoint from every other (small islands run after this call returns).
+                    unsafe {
+                        match batches.get(k) {
+                            Some(batch) => {
+                                let sticks = part(range(&batch.sticks), chunk, chunks);
+                                self.relax_stick_part(views, substep, sticks, batch.rigid);
+                            }
+                            None => self.relax_rest_of(views, island, substep),
                         }
-                        None => self.relax_rest_of(views, island, substep),
                     }
                     // (Release: the next batch's claimers see these positions.)
                     done.fetch_add(1, Ordering::Release);
@@ -484,53 +557,96 @@ impl Solver {
                 }
             }
         };
+        // The job ignores its index (threads claim chunks from the counters), so an executor
+        // that runs it twice at once only adds a helper; one that never runs it is caught here.
         executor.run(executor.threads(), &job);
+        if let Some(last) = steps.checked_sub(1) {
+            let done = counters[2 * last + 1].load(Ordering::Acquire) as usize;
+            assert!(
+                done >= chunks_of(last % per_iteration),
+                "the Executor returned before running its jobs"
+            );
+        }
     }
 
-    fn relax_sticks_of(&self, views: &Views, substep: &Substep, batch: &super::Batch) {
-        self.relax_stick_part(views, substep, range(&batch.sticks), batch.rigid);
+    /// One sweep over a colour batch.
+    ///
+    /// # Safety
+    /// No other task accesses the particles of the batch's sticks, or their multipliers, while
+    /// this runs.
+    unsafe fn relax_sticks_of(&self, views: &Views, substep: &Substep, batch: &super::Batch) {
+        // SAFETY: this task holds the batch (caller).
+        unsafe { self.relax_stick_part(views, substep, range(&batch.sticks), batch.rigid) };
     }
 
-    fn relax_stick_part(
+    /// One sweep over the sticks in `sticks`.
+    ///
+    /// # Safety
+    /// No other task accesses the particles of these sticks, or their multipliers, while this
+    /// runs.
+    unsafe fn relax_stick_part(
         &self,
         views: &Views,
         substep: &Substep,
         sticks: Range<usize>,
         rigid: bool,
     ) {
-        relax_stick_range(
-            &views.position,
-            &self.particles.inverse_mass,
-            &self.sticks,
-            &views.stick_lambda,
-            sticks,
-            1.0 / (substep.h * substep.h),
-            substep.accumulate,
-            rigid,
-        );
+        // SAFETY: this task holds these sticks (caller).
+        unsafe {
+            relax_stick_range(
+                &views.position,
+                &self.particles.inverse_mass,
+                &self.sticks,
+                &views.stick_lambda,
+                sticks,
+                1.0 / (substep.h * substep.h),
+                substep.accumulate,
+                rigid,
+            );
+        }
     }
 
     /// An island's angle constraints and tethers (one sweep).
-    fn relax_rest_of(&self, views: &Views, island: &Island, substep: &Substep) {
+    ///
+    /// # Safety
+    /// No other task accesses the island's particles or its angle constraints' multipliers
+    /// while this runs.
+    unsafe fn relax_rest_of(&self, views: &Views, island: &Island, substep: &Substep) {
         let inverse_mass = &self.particles.inverse_mass;
         if !island.angles.is_empty() {
-            relax_angle_range(
-                &views.position,
-                inverse_mass,
-                &self.angles,
-                &views.angle_lambda,
-                range(&island.angles),
-                1.0 / (substep.h * substep.h),
-                substep.accumulate,
-            );
+            // SAFETY: the island's constraints join its own particles (the layout matches the
+            // topology), which this task holds (caller).
+            unsafe {
+                relax_angle_range(
+                    &views.position,
+                    inverse_mass,
+                    &self.angles,
+                    &views.angle_lambda,
+                    range(&island.angles),
+                    1.0 / (substep.h * substep.h),
+                    substep.accumulate,
+                )
+            };
         }
         if !island.tethers.is_empty() {
-            relax_tether_range(
-                &views.position,
-                inverse_mass,
-                &self.tethers,
-                range(&island.tethers),
-            );
+            // SAFETY: as above (tethers are rebuilt from the solver's own sticks).
+            unsafe {
+                relax_tether_range(
+                    &views.position,
+                    inverse_mass,
+                    &self.tethers,
+                    range(&island.tethers),
+                )
+            };
+        }
+    }
+
+    /// Falls back to one island in array order when the islands do not describe the current
+    /// topology ([`Solver::is_organized`]): every phase checks, because the parallel paths
+    /// trust the islands (disjoint) and the batches marked independent (no shared particle).
+    fn check_layout(&mut self) {
+        if !self.is_organized() {
+            self.use_one_island();
         }
     }
 
@@ -560,10 +676,10 @@ impl Solver {
 
 fn views(taken: &mut Taken) -> Views<'_> {
     Views {
-        position: Shared::new(&mut taken.position),
-        previous: Shared::new(&mut taken.previous),
-        stick_lambda: Shared::new(&mut taken.stick_lambda),
-        angle_lambda: Shared::new(&mut taken.angle_lambda),
+        position: SharedSlice::new(&mut taken.position),
+        previous: SharedSlice::new(&mut taken.previous),
+        stick_lambda: SharedSlice::new(&mut taken.stick_lambda),
+        angle_lambda: SharedSlice::new(&mut taken.angle_lambda),
         lines: LineViews::new(&mut taken.lines),
     }
 }
@@ -585,11 +701,38 @@ fn for_due_particles(
             f(part(range(&island.particles), job, jobs), &substep);
         }
     };
-    if jobs > 1 {
-        executor.run(jobs, &job);
-    } else {
-        job(0);
+    run_jobs(executor, jobs, &job);
+}
+
+/// Runs `job(0)`, …, `job(jobs − 1)` on `executor`, each exactly once *whatever the executor
+/// does*: [`Executor`] is a safe trait, so the solver does not trust the indices it passes.
+/// Every call the executor makes claims job indices from one atomic counter until none is
+/// left — an executor that runs a job twice (even at the same time), or runs job 0 only, still
+/// runs each index once, so two threads never work on the same particles. An executor that
+/// returns without calling the job at all panics (the work would be silently skipped).
+fn run_jobs(executor: &dyn Executor, jobs: usize, job: &(dyn Fn(usize) + Sync)) {
+    if jobs <= 1 {
+        (0..jobs).for_each(job);
+        return;
     }
+    let next = AtomicUsize::new(0);
+    let finished = AtomicUsize::new(0);
+    executor.run(jobs, &|_| {
+        loop {
+            let claimed = next.fetch_add(1, Ordering::Relaxed);
+            if claimed >= jobs {
+                break;
+            }
+            job(claimed);
+            // (Release: the caller sees the job's writes once it has seen the count.)
+            finished.fetch_add(1, Ordering::Release);
+        }
+    });
+    assert_eq!(
+        finished.load(Ordering::Acquire),
+        jobs,
+        "the Executor returned before running its jobs"
+    );
 }
 
 /// The islands that take a substep now, with their substep contexts.

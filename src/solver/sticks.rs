@@ -19,7 +19,8 @@
 //! zero rest length with coincident ends is satisfied.
 
 use super::Particles;
-use super::shared::Shared;
+use super::islands::next_stamp;
+use super::shared::SharedSlice;
 use glam::DVec3;
 use std::ops::Range;
 
@@ -49,8 +50,9 @@ pub enum StickKind {
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Sticks {
-    /// Particle indices of the two ends.
-    pub ends: Vec<[u32; 2]>,
+    /// Particle indices of the two ends (read with [`Sticks::ends`], change with
+    /// [`Sticks::set_ends`]: the solver's islands and colour batches are built from them).
+    pub(crate) ends: Vec<[u32; 2]>,
     /// Rest lengths.
     pub rest_length: Vec<f64>,
     /// XPBD compliances (inverse stiffness; `0` = rigid).
@@ -66,6 +68,8 @@ pub struct Sticks {
     /// Indices of the sticks with a finite tear strain (so that a scene without tearing pays
     /// nothing for the tear pass).
     pub tearable: Vec<u32>,
+    /// A stamp that changes with every change of `ends` (see [`next_stamp`]).
+    pub(crate) stamp: u64,
 }
 
 impl Sticks {
@@ -79,8 +83,37 @@ impl Sticks {
         self.ends.is_empty()
     }
 
+    /// Particle indices of the two ends of every stick.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Sticks, StickKind};
+    /// let mut sticks = Sticks::default();
+    /// sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// assert_eq!(sticks.ends(), &[[0, 1]]);
+    /// ```
+    pub fn ends(&self) -> &[[u32; 2]] {
+        &self.ends
+    }
+
+    /// Makes stick `i` join `ends` instead. This changes the topology: the solver's islands
+    /// no longer describe it, so [`Solver::step`](super::Solver::step) treats everything as
+    /// one island until the next [`Solver::organize`](super::Solver::organize).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Sticks, StickKind};
+    /// let mut sticks = Sticks::default();
+    /// sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// sticks.set_ends(0, [1, 2]);
+    /// assert_eq!(sticks.ends()[0], [1, 2]);
+    /// ```
+    pub fn set_ends(&mut self, i: usize, ends: [u32; 2]) {
+        self.ends[i] = ends;
+        self.stamp = next_stamp();
+    }
+
     /// Removes every stick, keeping the allocations.
     pub fn clear(&mut self) {
+        self.stamp = next_stamp();
         self.ends.clear();
         self.rest_length.clear();
         self.compliance.clear();
@@ -102,6 +135,7 @@ impl Sticks {
         handle: u64,
     ) -> u32 {
         let index = self.ends.len() as u32;
+        self.stamp = next_stamp();
         self.ends.push(ends);
         self.rest_length.push(rest_length);
         self.compliance.push(compliance);
@@ -166,9 +200,10 @@ impl End {
     /// Reads both ends without bounds checks.
     ///
     /// # Safety
-    /// Both indices are below `position.len()` and `inverse_mass.len()`.
+    /// Both indices are below `position.len()` and `inverse_mass.len()`, and no other task
+    /// writes those particles while this runs.
     #[inline(always)]
-    unsafe fn load(position: &Shared<DVec3>, inverse_mass: &[f64], [a, b]: [u32; 2]) -> Self {
+    unsafe fn load(position: &SharedSlice<DVec3>, inverse_mass: &[f64], [a, b]: [u32; 2]) -> Self {
         let (a, b) = (a as usize, b as usize);
         // SAFETY: in bounds (caller).
         unsafe {
@@ -186,9 +221,9 @@ impl End {
     /// Moves end `a` by `correction·w_a` and end `b` by `−correction·w_b`.
     ///
     /// # Safety
-    /// As for [`End::load`].
+    /// As for [`End::load`] (no other task reads or writes those particles).
     #[inline(always)]
-    unsafe fn apply(&self, position: &Shared<DVec3>, correction: DVec3) {
+    unsafe fn apply(&self, position: &SharedSlice<DVec3>, correction: DVec3) {
         // SAFETY: in bounds (caller).
         unsafe {
             position.set_unchecked(self.a, self.xa + correction * self.wa);
@@ -216,16 +251,19 @@ impl End {
 /// ```
 pub fn relax_sticks(particles: &mut Particles, sticks: &mut Sticks, h: f64, accumulate: bool) {
     let mut lambda = std::mem::take(&mut sticks.lambda);
-    relax_stick_range(
-        &Shared::new(&mut particles.position),
-        &particles.inverse_mass,
-        sticks,
-        &Shared::new(&mut lambda),
-        0..sticks.len(),
-        1.0 / (h * h),
-        accumulate,
-        false,
-    );
+    // SAFETY: both slices are borrowed exclusively here; nothing else can access them.
+    unsafe {
+        relax_stick_range(
+            &SharedSlice::new(&mut particles.position),
+            &particles.inverse_mass,
+            sticks,
+            &SharedSlice::new(&mut lambda),
+            0..sticks.len(),
+            1.0 / (h * h),
+            accumulate,
+            false,
+        );
+    }
     sticks.lambda = lambda;
 }
 
@@ -235,11 +273,15 @@ pub fn relax_sticks(particles: &mut Particles, sticks: &mut Sticks, h: f64, accu
 /// [`Batch::rigid`](super::Batch::rigid)): then only ends and rest lengths are read, and no
 /// multiplier is kept (with `α = 0` it changes nothing).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn relax_stick_range(
-    position: &Shared<DVec3>,
+///
+/// # Safety
+/// No other task accesses the particles of the sticks in `range`, or their multipliers, while
+/// this runs.
+pub(crate) unsafe fn relax_stick_range(
+    position: &SharedSlice<DVec3>,
     inverse_mass: &[f64],
     sticks: &Sticks,
-    lambda: &Shared<f64>,
+    lambda: &SharedSlice<f64>,
     range: Range<usize>,
     inv_h2: f64,
     accumulate: bool,
@@ -260,7 +302,7 @@ pub(crate) fn relax_stick_range(
     if rigid {
         let rests = &sticks.rest_length[range.clone()];
         for (k, (&pair, &rest)) in ends.iter().zip(rests).enumerate() {
-            // SAFETY: both ends `< n` (checked above).
+            // SAFETY: both ends `< n` (checked above); this task alone accesses them (caller).
             let end = unsafe { End::load(position, inverse_mass, pair) };
             let w = end.wa + end.wb;
             if w <= 0.0 {
@@ -291,7 +333,7 @@ pub(crate) fn relax_stick_range(
             continue;
         }
         let i = range.start + k;
-        // SAFETY: both ends `< n` (checked above).
+        // SAFETY: both ends `< n` (checked above); this task alone accesses them (caller).
         let end = unsafe { End::load(position, inverse_mass, pair) };
         let w = end.wa + end.wb;
         if w <= 0.0 {
@@ -312,7 +354,12 @@ pub(crate) fn relax_stick_range(
             unsafe { end.apply(position, correction) };
             continue;
         }
-        let lambda_i = if accumulate { lambda.get(i) } else { 0.0 };
+        // SAFETY: this task alone accesses the multipliers of these sticks (caller).
+        let lambda_i = if accumulate {
+            unsafe { lambda.get(i) }
+        } else {
+            0.0
+        };
         let mut d_lambda = (-c - alpha * lambda_i) / (w + alpha);
         // One-sided sticks: the total multiplier may only pull (≤ 0) or only push (≥ 0).
         match kind {
@@ -321,7 +368,8 @@ pub(crate) fn relax_stick_range(
             _ => {}
         }
         if accumulate {
-            lambda.set(i, lambda_i + d_lambda);
+            // SAFETY: as above.
+            unsafe { lambda.set(i, lambda_i + d_lambda) };
         }
         let correction: DVec3 = if coincident {
             coincident_direction(i) * d_lambda

@@ -260,7 +260,7 @@ fn tearing_uses_post_solve_strain_and_rebuilds_tethers() {
             p as usize
                 <= torn
                     .iter()
-                    .map(|&t| solver.sticks.ends[t as usize][0])
+                    .map(|&t| solver.sticks.ends()[t as usize][0])
                     .min()
                     .unwrap() as usize
         );
@@ -392,4 +392,26 @@ fn coincident_ends_are_pushed_apart_and_zero_length_sticks_are_satisfied() {
         (d.length() - 1.0).abs() < 1e-12 && d.z == 0.0 && d.y.abs() > 0.1,
         "{d}"
     );
+}
+
+#[test]
+fn tethers_across_islands_make_the_layout_stale() {
+    // A pinned particle and a free one, joined by a stick torn before `organize`: two islands.
+    let mut solver = Solver::default();
+    let pivot = solver.add_particle(DVec3::ZERO, 0.0);
+    let bob = solver.add_particle(DVec3::X, 1.0);
+    solver.pin(pivot, DVec3::ZERO);
+    solver
+        .sticks
+        .push([pivot, bob], 1.0, 0.0, StickKind::Torn, f64::INFINITY, 0);
+    solver.tethered[bob as usize] = true;
+    solver.organize();
+    assert_eq!(solver.islands.list.len(), 2);
+    assert!(solver.tethers.is_empty() && solver.is_organized());
+    // Made whole again, the stick gives a tether between the two islands: the islands no
+    // longer describe the topology (two jobs could otherwise move one particle).
+    solver.sticks.kind[0] = StickKind::Equal;
+    solver.rebuild_tethers();
+    assert_eq!(solver.tethers.len(), 1);
+    assert!(!solver.is_organized());
 }

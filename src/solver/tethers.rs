@@ -11,7 +11,8 @@
 //! Tethers are derived from the topology: they are rebuilt whenever it changes, and after a
 //! tear, so that a torn piece is not held across the tear.
 
-use super::shared::Shared;
+use super::islands::next_stamp;
+use super::shared::SharedSlice;
 use super::{Particles, Pins, StickKind, Sticks};
 use glam::DVec3;
 use std::cmp::Ordering;
@@ -36,10 +37,10 @@ use std::ops::Range;
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Tethers {
-    /// Tethered (free) particle.
-    pub particle: Vec<u32>,
-    /// Anchor (pinned) particle.
-    pub anchor: Vec<u32>,
+    /// Tethered (free) particle (read with [`Tethers::particle`]).
+    pub(crate) particle: Vec<u32>,
+    /// Anchor (pinned) particle (read with [`Tethers::anchor`]).
+    pub(crate) anchor: Vec<u32>,
     /// Largest allowed distance.
     pub max_length: Vec<f64>,
     // Scratch for the rebuild (kept to avoid reallocating).
@@ -47,6 +48,8 @@ pub struct Tethers {
     source: Vec<u32>,
     adjacency_start: Vec<u32>,
     adjacency: Vec<(u32, f64)>,
+    /// A stamp that changes with every change of `particle` or `anchor`.
+    pub(crate) stamp: u64,
 }
 
 #[derive(PartialEq)]
@@ -78,8 +81,29 @@ impl Tethers {
         self.particle.is_empty()
     }
 
+    /// The tethered (free) particle of every tether.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Tethers;
+    /// assert!(Tethers::default().particle().is_empty());
+    /// ```
+    pub fn particle(&self) -> &[u32] {
+        &self.particle
+    }
+
+    /// The anchor (pinned) particle of every tether.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Tethers;
+    /// assert!(Tethers::default().anchor().is_empty());
+    /// ```
+    pub fn anchor(&self) -> &[u32] {
+        &self.anchor
+    }
+
     /// Removes every tether.
     pub fn clear(&mut self) {
+        self.stamp = next_stamp();
         self.particle.clear();
         self.anchor.clear();
         self.max_length.clear();
@@ -166,17 +190,23 @@ impl Tethers {
 /// Projects every tether once: a particle farther than its tether's length from its anchor is
 /// moved back onto the sphere around the anchor.
 pub fn relax_tethers(particles: &mut Particles, tethers: &Tethers) {
-    relax_tether_range(
-        &Shared::new(&mut particles.position),
-        &particles.inverse_mass,
-        tethers,
-        0..tethers.len(),
-    );
+    // SAFETY: the positions are borrowed exclusively here; nothing else can access them.
+    unsafe {
+        relax_tether_range(
+            &SharedSlice::new(&mut particles.position),
+            &particles.inverse_mass,
+            tethers,
+            0..tethers.len(),
+        );
+    }
 }
 
 /// [`relax_tethers`] over the tethers in `range`.
-pub(crate) fn relax_tether_range(
-    position: &Shared<DVec3>,
+///
+/// # Safety
+/// No other task accesses the particles or anchors of these tethers while this runs.
+pub(crate) unsafe fn relax_tether_range(
+    position: &SharedSlice<DVec3>,
     inverse_mass: &[f64],
     tethers: &Tethers,
     range: Range<usize>,
@@ -187,11 +217,14 @@ pub(crate) fn relax_tether_range(
             continue; // grabbed or pinned since the tethers were built
         }
         let max = tethers.max_length[i];
-        let anchor = position.get(a);
-        let delta: DVec3 = position.get(p) - anchor;
-        let length_squared = delta.length_squared();
-        if length_squared > max * max {
-            position.set(p, anchor + delta * (max / length_squared.sqrt()));
+        // SAFETY: this task alone accesses the particle and its anchor (caller).
+        unsafe {
+            let anchor = position.get(a);
+            let delta: DVec3 = position.get(p) - anchor;
+            let length_squared = delta.length_squared();
+            if length_squared > max * max {
+                position.set(p, anchor + delta * (max / length_squared.sqrt()));
+            }
         }
     }
 }

@@ -416,7 +416,7 @@ impl VerletState {
             }
         }
         let s = &self.solver.sticks;
-        for batch in &mut self.solver.islands.batches {
+        for batch in &mut self.solver.islands.batches.0 {
             if batch.sticks.contains(&index) {
                 batch.rigid = batch.sticks.clone().all(|k| {
                     let k = k as usize;
@@ -497,7 +497,7 @@ impl VerletState {
                 *x -= 1;
             }
         };
-        for island in &mut self.solver.islands.list {
+        for island in &mut self.solver.islands.list.0 {
             if island.particles.start > slot {
                 shift(&mut island.pins.start);
                 shift(&mut island.pins.end);
@@ -522,12 +522,12 @@ impl VerletState {
             }
         }
         let islands = &mut self.solver.islands;
-        for island in &mut islands.list {
+        for island in &mut islands.list.0 {
             island.settings = None;
         }
         for &(slot, settings) in &self.solver.island_settings {
             if let Some(k) = islands.of_particle(slot) {
-                let island = &mut islands.list[k];
+                let island = &mut islands.list.0[k];
                 island.settings = Some(island.settings.map_or(settings, |s| s.max(settings)));
             }
         }

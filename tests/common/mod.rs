@@ -218,10 +218,10 @@ pub fn check_consistency(app: &mut App) -> Result<(), String> {
             .get::<Stick>(entity)
             .ok_or(format!("solver stick {i} ({entity}) is not a live Stick"))?;
         let ends = [state.slot(stick.a), state.slot(stick.b)];
-        if ends != solver.sticks.ends[i].map(Some) {
+        if ends != solver.sticks.ends()[i].map(Some) {
             return Err(format!(
                 "stick {entity}: ends {ends:?} vs solver {:?}",
-                solver.sticks.ends[i]
+                solver.sticks.ends()[i]
             ));
         }
         if !in_solver.insert(entity) {

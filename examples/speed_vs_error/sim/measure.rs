@@ -68,7 +68,7 @@ pub fn strain_stats(solver: &Solver) -> (f64, f64, f64) {
         if matches!(sticks.kind[i], StickKind::Torn | StickKind::AtLeast) {
             continue;
         }
-        let [a, b] = sticks.ends[i];
+        let [a, b] = sticks.ends()[i];
         let l = (p[a as usize] - p[b as usize]).length();
         let strain = l / sticks.rest_length[i] - 1.0;
         sum += strain;
