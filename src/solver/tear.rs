@@ -80,7 +80,7 @@ impl super::Solver {
         self.sticks.kind[i] = StickKind::Torn;
         self.sticks.tearable.retain(|&s| s as usize != i);
         // Torn sticks must be skipped: no batch is known all-rigid any more.
-        for batch in &mut self.islands.batches {
+        for batch in &mut self.islands.batches.0 {
             batch.rigid = false;
         }
         self.wake_requests.push(self.sticks.ends[i][0]);
