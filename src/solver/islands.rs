@@ -649,13 +649,7 @@ impl Solver {
                 Method::Auto => self.method,
                 forced => forced,
             };
-            let max_degree = particles
-                .clone()
-                .map(|p| builder.incidence.degree(p))
-                .max()
-                .unwrap_or(0);
-            let chain =
-                is_chain_or_tree(sticks, particles.len(), max_degree) && island.angles.is_empty();
+            let chain = is_chain_or_tree(sticks, particles.len()) && island.angles.is_empty();
             island.method = match method {
                 Method::Auto if chain => Method::Lines,
                 Method::Lines if sticks > 0 => Method::Lines,

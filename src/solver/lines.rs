@@ -44,9 +44,9 @@ use std::ops::Range;
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Method {
-    /// Chosen per island by [`Solver::organize`](super::Solver::organize): chains and trees
-    /// (no particle with more than two sticks, or no loop) → [`Method::Lines`]; everything else
-    /// (meshes, ragdolls with posture links, braced structures) → [`Method::Sweep`].
+    /// Chosen per island by [`Solver::organize`](super::Solver::organize): chains and trees (no
+    /// loop, no angle constraint) → [`Method::Lines`]; everything else (rings, meshes, ragdolls
+    /// with posture links, braced structures) → [`Method::Sweep`].
     #[default]
     Auto,
     /// Gauss–Seidel sweeps over single sticks (in colour order on large meshes).
@@ -103,11 +103,17 @@ pub struct IslandLines {
 /// Cosine below which two sticks at a particle do not continue each other (60° off straight).
 const STRAIGHT_ENOUGH: f64 = -0.5;
 
-/// `true` when the island with these sticks is a chain or a tree: no particle holds more than
-/// two of its sticks, or it has no loop (`sticks < particles`). Such islands are solved by lines
-/// under [`Method::Auto`].
-pub(crate) fn is_chain_or_tree(sticks: usize, particles: usize, max_degree: usize) -> bool {
-    sticks > 0 && (max_degree <= 2 || sticks < particles)
+/// `true` when a connected island with these sticks has no loop (`sticks < particles`): a
+/// chain or a tree. Such islands are solved by lines under [`Method::Auto`]. (A ring — an
+/// unbraced square, a tire's rim — has a loop: it is swept, as a mechanism should be.)
+pub(crate) fn is_chain_or_tree(sticks: usize, particles: usize) -> bool {
+    sticks > 0 && sticks < particles
+}
+
+/// `true` when a line may follow every bend of the island: a chain, a tree or a ring (no
+/// particle with more than two sticks), as opposed to a mesh.
+fn bends_freely(sticks: usize, particles: usize, max_degree: usize) -> bool {
+    is_chain_or_tree(sticks, particles) || (sticks > 0 && max_degree <= 2)
 }
 
 /// Scratch for [`cover`], kept between rebuilds.
@@ -152,7 +158,7 @@ pub(crate) fn cover(
     }
     let (count, particles_in) = (island_sticks.len(), island_particles.len());
     let max_degree = island_particles.clone().map(|p| incidence.degree(p)).max();
-    let bend = is_chain_or_tree(count, particles_in, max_degree.unwrap_or(0));
+    let bend = bends_freely(count, particles_in, max_degree.unwrap_or(0));
     for p in island_particles.clone() {
         pair_straight_sticks(scratch, (particles, sticks), incidence, p, bend);
     }
