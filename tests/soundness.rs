@@ -5,37 +5,9 @@
 use bevy_verlet_physics::solver::parallel::PARALLEL_CHUNK_STICKS;
 use bevy_verlet_physics::solver::{Executor, ScopedThreads, Serial, Solver, StepConfig, StickKind};
 use glam::DVec3;
+use grid::cloth;
 
-/// An `n × n` cloth of rigid sticks (row-major), pinned at its two top corners.
-fn cloth(solver: &mut Solver, n: usize) {
-    let first = solver.particles.len() as u32;
-    for row in 0..n {
-        for column in 0..n {
-            let p = DVec3::new(column as f64, 0.0, -(row as f64)) * 0.05;
-            solver.add_particle(p, 1.0);
-        }
-    }
-    let index = |c: usize, r: usize| first + (r * n + c) as u32;
-    for row in 0..n {
-        for column in 0..n {
-            if column + 1 < n {
-                let ends = [index(column, row), index(column + 1, row)];
-                solver
-                    .sticks
-                    .push(ends, 0.05, 0.0, StickKind::Equal, f64::INFINITY, 0);
-            }
-            if row + 1 < n {
-                let ends = [index(column, row), index(column, row + 1)];
-                solver
-                    .sticks
-                    .push(ends, 0.05, 0.0, StickKind::Equal, f64::INFINITY, 0);
-            }
-        }
-    }
-    for i in [index(0, 0), index(n - 1, 0)] {
-        solver.pin(i, solver.particles.position[i as usize]);
-    }
-}
+mod grid;
 
 /// `ropes` ropes of `links` links, each pinned at its first particle, started horizontally.
 fn ropes(solver: &mut Solver, ropes: usize, links: usize) {
@@ -57,7 +29,7 @@ fn ropes(solver: &mut Solver, ropes: usize, links: usize) {
 /// A 72 × 72 cloth (solved on every thread at 4 iterations) and 400 ropes (spread in groups).
 fn scene() -> Solver {
     let mut solver = Solver::default();
-    cloth(&mut solver, 72);
+    cloth(&mut solver, 72, 0.05, DVec3::ZERO, &[(0, 0), (71, 0)]);
     ropes(&mut solver, 400, 50);
     solver.organize();
     solver

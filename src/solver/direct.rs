@@ -331,12 +331,7 @@ impl LineSolve<'_, '_> {
                     let s = line.sticks[j] as usize;
                     let q = line.particles[j + 1] as usize;
                     let at_start = self.previous.get(q) - self.previous.get(p);
-                    let start_length = at_start.length();
-                    let start = if start_length > 1e-12 {
-                        at_start / start_length
-                    } else {
-                        coincident_direction(s)
-                    };
+                    let (start, start_length) = unit_and_length(at_start, s);
                     x_next = self.position.get(q);
                     let d = x_next - x;
                     let length = d.length();
@@ -449,13 +444,7 @@ impl LineSolve<'_, '_> {
         unsafe {
             let s = line.sticks[k] as usize;
             let (p, q) = (line.particles[k] as usize, line.particles[k + 1] as usize);
-            let d = self.position.get(q) - self.position.get(p);
-            let length = d.length();
-            let normal = if length > 1e-12 {
-                d / length
-            } else {
-                coincident_direction(s)
-            };
+            let (normal, length) = unit_and_length(self.position.get(q) - self.position.get(p), s);
             let c = length - self.sticks.rest_length[s];
             let movable = self.inverse_mass[p] + self.inverse_mass[q] > 0.0;
             let active = movable
@@ -612,5 +601,17 @@ impl LineSolve<'_, '_> {
                 before = after;
             }
         }
+    }
+}
+
+/// The unit vector along `d` and its length; for (nearly) coincident ends, stick `s`'s fixed
+/// push-apart direction (see [`sticks`](super::sticks)).
+#[inline(always)]
+fn unit_and_length(d: DVec3, s: usize) -> (DVec3, f64) {
+    let length = d.length();
+    if length > 1e-12 {
+        (d / length, length)
+    } else {
+        (coincident_direction(s), length)
     }
 }

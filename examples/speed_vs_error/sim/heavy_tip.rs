@@ -7,7 +7,7 @@
 //! total stretch (mean over the last half second) and the largest link strain.
 
 use super::measure::strain_stats;
-use super::{Column, Scene, Setting, Unit, add_pinned, add_rod, apply_tethers, step, steps_in};
+use super::{Column, Scene, Setting, Unit, add_chain, apply_tethers, step, steps_in};
 use bevy_verlet_physics::solver::{Solver, StepConfig};
 use glam::DVec3;
 
@@ -58,18 +58,7 @@ impl Scene for HeavyTip {
 
     fn build(&self, setting: &Setting) -> (Solver, StepConfig) {
         let mut solver = Solver::default();
-        let link = 1.0 / self.links as f64;
-        let mut previous = add_pinned(&mut solver, DVec3::ZERO);
-        for i in 1..=self.links {
-            let w = if i == self.links {
-                1.0 / self.mass_ratio
-            } else {
-                1.0
-            };
-            let p = solver.add_particle(DVec3::new(0.0, -link * i as f64, 0.0), w);
-            add_rod(&mut solver, previous, p);
-            previous = p;
-        }
+        add_chain(&mut solver, self.links, 1.0, DVec3::NEG_Y, self.mass_ratio);
         apply_tethers(&mut solver, setting);
         (solver, setting.config(DVec3::new(0.0, -9.81, 0.0), DAMPING))
     }

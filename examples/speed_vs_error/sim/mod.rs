@@ -314,6 +314,19 @@ pub fn add_pinned(solver: &mut Solver, position: DVec3) -> u32 {
     i
 }
 
+/// A chain of `links` rigid sticks from a pin at the origin along `direction` (a unit vector),
+/// `length` long, its last particle `tip_ratio` × as heavy as the others (unit masses).
+pub fn add_chain(solver: &mut Solver, links: usize, length: f64, direction: DVec3, tip_ratio: f64) {
+    let link = length / links as f64;
+    let mut previous = add_pinned(solver, DVec3::ZERO);
+    for i in 1..=links {
+        let w = if i == links { 1.0 / tip_ratio } else { 1.0 };
+        let p = solver.add_particle(direction * (link * i as f64), w);
+        add_rod(solver, previous, p);
+        previous = p;
+    }
+}
+
 /// A rigid two-sided stick at its current length.
 pub fn add_rod(solver: &mut Solver, a: u32, b: u32) -> u32 {
     let p = &solver.particles.position;
