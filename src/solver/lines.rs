@@ -93,11 +93,11 @@ impl LineSet {
 
 /// Where one island's lines went in a [`LineSet`].
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct IslandLines {
+pub(crate) struct IslandLines {
     /// Ranges into [`LineSet::groups`].
-    pub groups: Range<u32>,
+    pub(crate) groups: Range<u32>,
     /// Range into [`LineSet::loose`].
-    pub loose: Range<u32>,
+    pub(crate) loose: Range<u32>,
 }
 
 /// Cosine below which two sticks at a particle do not continue each other (60° off straight).

@@ -85,6 +85,8 @@ impl VerletState {
         self.render_previous.clear();
         self.render_current.clear();
         self.torn_pending = 0;
+        // (The rebuild reads the world as it is: removals still expected are no longer special.)
+        self.torn_entities.clear();
         (old_slots, old_islands)
     }
 
