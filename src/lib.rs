@@ -27,6 +27,10 @@
 //! scatters positions back once.
 #![warn(missing_docs)]
 
+#[cfg(feature = "avian2d")]
+pub mod avian2d;
+#[cfg(feature = "avian3d")]
+pub mod avian3d;
 pub mod builders;
 #[cfg(feature = "gizmos")]
 mod cloth_mesh;

@@ -37,6 +37,8 @@ pub(crate) enum Problem {
     Gravity,
     Damping,
     Diverged,
+    #[cfg_attr(not(any(feature = "avian2d", feature = "avian3d")), allow(dead_code))]
+    Attachment,
 }
 
 /// The solver core and its entity bookkeeping (a resource).

@@ -118,6 +118,7 @@ fn keep_inside(
     collider: &Collider,
     resting_speed: f64,
 ) -> Option<(DVec3, DVec3)> {
+    let material = (collider.restitution, collider.friction);
     let to_world = |v: DVec3| frame.map_or(v, |(_, rotation)| rotation * v);
     let local = frame.map_or(x, |(pivot, rotation)| rotation.inverse() * (x - pivot));
     let lo = min + DVec3::splat(radius);
@@ -137,7 +138,7 @@ fn keep_inside(
             } else {
                 -1.0
             };
-            velocity = respond(velocity, to_world(normal), collider, resting_speed);
+            velocity = respond(velocity, to_world(normal), material, resting_speed);
         }
     }
     let world = frame.map_or(clamped, |(pivot, rotation)| pivot + rotation * clamped);
@@ -146,21 +147,26 @@ fn keep_inside(
 
 /// Surface response for a particle whose substep velocity (displacement per substep) before
 /// projection was `velocity`, against a surface with unit `normal`: the new velocity.
-fn respond(velocity: DVec3, normal: DVec3, collider: &Collider, resting_speed: f64) -> DVec3 {
+pub(crate) fn respond(
+    velocity: DVec3,
+    normal: DVec3,
+    (restitution, friction): (f64, f64),
+    resting_speed: f64,
+) -> DVec3 {
     let normal_speed = velocity.dot(normal);
     if normal_speed >= 0.0 {
         return velocity; // already leaving the surface
     }
     let tangential = velocity - normal * normal_speed;
     let tangential_speed = tangential.length();
-    let reduced = (tangential_speed + collider.friction * normal_speed).max(0.0);
+    let reduced = (tangential_speed + friction * normal_speed).max(0.0);
     let tangential = if tangential_speed > 0.0 {
         tangential * (reduced / tangential_speed)
     } else {
         tangential
     };
     let bounce = if -normal_speed > resting_speed {
-        -collider.restitution * normal_speed
+        -restitution * normal_speed
     } else {
         0.0
     };
@@ -233,12 +239,13 @@ pub(crate) fn constrain_range(
                     }
                 }
                 ref shape => {
+                    let material = (collider.restitution, collider.friction);
                     if let Some((normal, depth)) = contact(shape, x, radius) {
                         let projected = x + normal * depth;
                         position.set(i, projected);
                         previous.set(
                             i,
-                            projected - respond(velocity, normal, collider, resting_speed),
+                            projected - respond(velocity, normal, material, resting_speed),
                         );
                     }
                 }

@@ -65,9 +65,13 @@
 //! ```
 
 mod angles;
+mod attachments;
+mod bodies;
 mod colliders;
 pub mod colouring;
+mod contacts;
 pub mod direct;
+pub mod external;
 mod integrate;
 pub mod islands;
 pub mod lines;
@@ -81,8 +85,12 @@ mod tear;
 mod tethers;
 
 pub use angles::{Angles, relax_angles};
+pub use attachments::{Attachment, AttachmentScratch, lump, release};
+pub use bodies::{Body, Pose};
 pub use colliders::{Collider, Shape, constrain};
 pub use colouring::Batch;
+pub use contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle};
+pub use external::External;
 pub use integrate::{consistent_previous, integrate};
 pub use islands::{Island, IslandSettings, Islands, ReadOnly, Reorder, Sleep};
 pub use lines::{Line, LineSet, Method};

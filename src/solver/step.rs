@@ -361,6 +361,31 @@ impl Solver {
         self.give_back(taken, islands);
     }
 
+    /// The particle ranges that take global substep `global`, each with its island's substep
+    /// (written into `out`, which is cleared first; no allocation once it has grown). For
+    /// passes outside the solver that must follow the islands' substeps (e.g. contacts with
+    /// another engine's colliders).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{GlobalSubstep, Solver, StepConfig};
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// solver.add_particle(DVec3::ZERO, 1.0);
+    /// solver.organize();
+    /// let config = StepConfig::default();
+    /// let count = solver.begin_step(&config);
+    /// let mut due = Vec::new();
+    /// solver.due_ranges(&GlobalSubstep { config, index: 1, count, plain: false }, &mut due);
+    /// assert_eq!(due[0].0, 0..1);
+    /// ```
+    pub fn due_ranges(&mut self, global: &GlobalSubstep, out: &mut Vec<(Range<usize>, Substep)>) {
+        self.check_layout();
+        out.clear();
+        out.extend(
+            due(&self.islands.list, global).map(|(island, s)| (range(&island.particles), s)),
+        );
+    }
+
     /// Ends a fixed step: pins start the next step where this one left them, overstrained sticks
     /// tear (post-solve strain), and calm islands fall asleep. Returns how many sticks tore;
     /// their indices are in [`Solver::torn`]. Tethers are rebuilt after a tear.

@@ -1,0 +1,543 @@
+// The avian integration, shared by `avian2d` and `avian3d`: each of those modules defines the
+// dimension adapters (`to_d`, `from_d`, `rotation_d`, `rotation_from_d`, `angular_d`,
+// `angular_from_d`, `inverse_inertia_d`) and includes this file. No inner docs here: the
+// including module documents the algorithm.
+
+use crate::solver::{
+    Attachment, Body, ContactShape, External, ExternalCollider, GlobalSubstep, Layers, Pose,
+};
+use crate::{Composite, Particle, VerletState, VerletSubstepSystems, VerletSubsteps, VerletSystems};
+use bevy::ecs::entity::EntityHashMap;
+use bevy::prelude::*;
+use glam::{DMat3, DQuat, DVec3};
+
+/// Couples the Verlet particles with avian both ways: particles collide with avian colliders and
+/// push dynamic bodies; [`BodyAttachment`]s fix particles to bodies and pull on them.
+///
+/// Add it after avian's `PhysicsPlugins` and [`VerletPlugin`](crate::VerletPlugin). Both step in
+/// `FixedPostUpdate`: the particle step runs first (reading the bodies as avian left them at
+/// the end of the previous tick, and moving proxies of them through its substeps), hands each
+/// body the impulse the particles gave it, then avian steps with that impulse in the bodies'
+/// velocities. Bodies lag the particles by at most one tick.
+///
+/// ```
+/// use bevy::prelude::*;
+#[doc = concat!("use ", module_name_doc!(), "::prelude::*;")]
+#[doc = concat!("use bevy_verlet_physics::", module_name_doc!(), "::VerletAvianPlugin;")]
+/// use bevy_verlet_physics::prelude::*;
+/// let mut app = App::new();
+/// app.add_plugins((MinimalPlugins, bevy::transform::TransformPlugin))
+///     .add_plugins((PhysicsPlugins::default(), VerletPlugin::default(), VerletAvianPlugin));
+/// app.finish();
+/// app.update();
+/// ```
+#[derive(Debug, Default, Clone, Copy)]
+pub struct VerletAvianPlugin;
+
+/// Fixes a particle to a point of an avian rigid body, both ways: a dynamic body drags the
+/// particle and the particle's constraints pull the body (with its mass and inertia); a static
+/// or kinematic body carries the particle like a moving pin. Put it on the particle's entity.
+///
+/// ```
+/// use bevy::prelude::*;
+#[doc = concat!("use bevy_verlet_physics::", module_name_doc!(), "::BodyAttachment;")]
+/// let mut world = World::new();
+/// let crate_body = world.spawn_empty().id();
+/// let attachment = BodyAttachment::new(crate_body, Default::default());
+/// assert_eq!(attachment.body, crate_body);
+/// ```
+#[derive(Component, Reflect, Debug, Clone, Copy, PartialEq)]
+#[reflect(Component, Debug, Clone)]
+pub struct BodyAttachment {
+    /// The rigid body (an entity with avian's `RigidBody`).
+    pub body: Entity,
+    /// The anchor in the body's local frame (relative to its origin, like avian's joints).
+    pub anchor: Anchor,
+}
+
+impl BodyAttachment {
+    /// Attaches to `body` at `anchor` (body-local).
+    pub fn new(body: Entity, anchor: Anchor) -> Self {
+        Self { body, anchor }
+    }
+}
+
+/// Surface response of particles against avian colliders that carry no `Friction` /
+/// `Restitution` of their own (with them, those are used: `dynamic_coefficient` and
+/// `coefficient`).
+///
+/// ```
+#[doc = concat!("use bevy_verlet_physics::", module_name_doc!(), "::AvianCoupling;")]
+/// let coupling = AvianCoupling { friction: 0.3, ..Default::default() };
+/// assert_eq!(coupling.restitution, 0.0);
+/// ```
+#[derive(Resource, Reflect, Debug, Clone, Copy, PartialEq)]
+#[reflect(Resource, Debug, Clone)]
+pub struct AvianCoupling {
+    /// Coulomb friction coefficient (our `VerletCollider` convention).
+    pub friction: f32,
+    /// Fraction of the normal speed kept after a bounce.
+    pub restitution: f32,
+}
+
+impl Default for AvianCoupling {
+    fn default() -> Self {
+        Self {
+            friction: 0.5,
+            restitution: 0.0,
+        }
+    }
+}
+
+/// What the coupling did in the last fixed step (for tests and overlays).
+///
+/// ```
+#[doc = concat!("use bevy_verlet_physics::", module_name_doc!(), "::AvianCouplingStats;")]
+/// assert_eq!(AvianCouplingStats::default().contacts, 0);
+/// ```
+#[derive(Resource, Reflect, Debug, Clone, Copy, Default, PartialEq)]
+#[reflect(Resource, Debug, Clone)]
+pub struct AvianCouplingStats {
+    /// Bodies taking part (with an attachment or a collider near particles).
+    pub bodies: usize,
+    /// Colliders near particles (their bounds touch an island's bounds).
+    pub colliders: usize,
+    /// Attachments.
+    pub attachments: usize,
+    /// Particle–collider contacts resolved (summed over substeps).
+    pub contacts: usize,
+}
+
+/// avian's `Collider`, as the core's [`ContactShape`].
+#[derive(Clone)]
+struct AvianShape(Collider);
+
+impl ContactShape for AvianShape {
+    fn project(&self, pose: Pose, point: DVec3) -> (DVec3, bool) {
+        let (surface, inside) = self.0.project_point(
+            from_d(pose.translation),
+            rotation_from_d(pose.rotation),
+            from_d(point),
+            false,
+        );
+        (to_d(surface), inside)
+    }
+
+    fn cast_ray(
+        &self,
+        pose: Pose,
+        origin: DVec3,
+        direction: DVec3,
+        max: f64,
+    ) -> Option<(f64, DVec3)> {
+        let direction = Dir::new(from_d(direction)).ok()?;
+        let hit = self.0.cast_ray(
+            from_d(pose.translation),
+            rotation_from_d(pose.rotation),
+            from_d(origin),
+            *direction,
+            max as f32,
+            true,
+        );
+        hit.map(|(t, normal)| (f64::from(t), to_d(normal)))
+    }
+
+    fn bounds(&self, pose: Pose) -> (DVec3, DVec3) {
+        let aabb = self
+            .0
+            .aabb(from_d(pose.translation), rotation_from_d(pose.rotation));
+        (to_d(aabb.min), to_d(aabb.max))
+    }
+}
+
+/// The coupled world of the current step: the core's lists and the entities behind them.
+#[derive(Resource, Default)]
+struct Coupled {
+    external: External<AvianShape>,
+    body_entities: Vec<Entity>,
+    /// Each body's centre of mass in its own frame (to place its origin).
+    body_centres: Vec<DVec3>,
+    body_index: EntityHashMap<u32>,
+    island_bounds: Vec<(DVec3, DVec3)>,
+}
+
+impl Plugin for VerletAvianPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<BodyAttachment>()
+            .register_type::<AvianCoupling>()
+            .register_type::<AvianCouplingStats>()
+            .init_resource::<AvianCoupling>()
+            .init_resource::<AvianCouplingStats>()
+            .init_resource::<Coupled>();
+        app.configure_sets(
+            FixedPostUpdate,
+            VerletSystems::Writeback.before(PhysicsSystems::First),
+        );
+        app.add_systems(
+            crate::VerletSchedule,
+            (
+                gather
+                    .after(VerletSystems::Prepare)
+                    .before(VerletSystems::Substeps),
+                apply_impulses
+                    .after(VerletSystems::Substeps)
+                    .before(VerletSystems::Writeback),
+            ),
+        );
+        app.add_systems(
+            VerletSubsteps,
+            (
+                before_relax
+                    .after(VerletSubstepSystems::Integrate)
+                    .before(VerletSubstepSystems::Relax),
+                after_relax
+                    .after(VerletSubstepSystems::Relax)
+                    .before(VerletSubstepSystems::Constrain),
+                after_constrain.after(VerletSubstepSystems::Constrain),
+            ),
+        );
+    }
+}
+
+/// The components a rigid body contributes.
+type BodyData = (
+    &'static RigidBody,
+    &'static Position,
+    &'static Rotation,
+    &'static LinearVelocity,
+    &'static AngularVelocity,
+    &'static ComputedMass,
+    &'static ComputedAngularInertia,
+    &'static ComputedCenterOfMass,
+    Option<&'static GravityScale>,
+);
+
+/// The components a collider contributes.
+type ColliderData = (
+    Entity,
+    &'static Collider,
+    &'static Position,
+    &'static Rotation,
+    &'static ColliderAabb,
+    Option<&'static ColliderOf>,
+    Option<&'static CollisionLayers>,
+    Option<&'static Friction>,
+    Option<&'static Restitution>,
+);
+
+/// Fills the coupled world for this step: bodies with attachments, colliders whose bounds touch
+/// an island's bounds (with their bodies), particle layers.
+#[allow(clippy::too_many_arguments)]
+fn gather(
+    mut coupled: ResMut<Coupled>,
+    mut state: ResMut<VerletState>,
+    coupling: Res<AvianCoupling>,
+    config: Res<crate::VerletConfig>,
+    gravity: Res<Gravity>,
+    time: Res<Time>,
+    bodies: Query<BodyData>,
+    colliders: Query<ColliderData, Without<Sensor>>,
+    attachments: Query<(Entity, &BodyAttachment), With<Particle>>,
+    layered: Query<(Entity, &CollisionLayers, Option<&Composite>)>,
+) {
+    let coupled = &mut *coupled;
+    let state = &mut *state;
+    coupled.external.bodies.clear();
+    coupled.external.colliders.clear();
+    coupled.external.attachments.clear();
+    coupled.body_entities.clear();
+    coupled.body_centres.clear();
+    coupled.body_index.clear();
+    let step = time.delta_secs_f64();
+    let g = to_d(gravity.0);
+    let add_body = |coupled: &mut Coupled, entity: Entity| -> Option<u32> {
+        if let Some(&index) = coupled.body_index.get(&entity) {
+            return Some(index);
+        }
+        let data = bodies.get(entity).ok()?;
+        let index = coupled.external.bodies.len() as u32;
+        coupled.external.bodies.push(proxy(data, g));
+        coupled.body_entities.push(entity);
+        coupled.body_centres.push(to_d(data.7.0));
+        coupled.body_index.insert(entity, index);
+        Some(index)
+    };
+    for (particle, attachment) in &attachments {
+        let Some(slot) = state.slot(particle) else {
+            continue;
+        };
+        if state.solver.particles.inverse_mass[slot as usize] <= 0.0 {
+            state.warn(particle, crate::state::Problem::Attachment, || {
+                "BodyAttachment on a pinned or massless particle is ignored".to_string()
+            });
+            continue;
+        }
+        let Some(index) = add_body(coupled, attachment.body) else {
+            state.warn(particle, crate::state::Problem::Attachment, || {
+                format!("BodyAttachment to {:?}: not an avian rigid body", attachment.body)
+            });
+            continue;
+        };
+        let Ok((_, _, _, _, _, _, _, centre, _)) = bodies.get(attachment.body) else {
+            continue;
+        };
+        let anchor = to_d(attachment.anchor) - to_d(centre.0);
+        coupled
+            .external
+            .attachments
+            .push(Attachment::new(slot, index, anchor));
+    }
+    island_bounds(state, f64::from(config.substeps), &mut coupled.island_bounds);
+    for (_, collider, position, rotation, aabb, of, layers, friction, restitution) in
+        &colliders
+    {
+        let body = of.and_then(|of| bodies.get(of.body).ok()).map(|data| proxy(data, g));
+        let (lo, hi) = swept_bounds(aabb, body.as_ref(), step);
+        let near = coupled.island_bounds.iter().any(|&(a, b)| {
+            lo.cmple(b).all() && hi.cmpge(a).all()
+        });
+        if !near {
+            continue;
+        }
+        let world = Pose {
+            translation: to_d(position.0),
+            rotation: rotation_d(rotation),
+        };
+        let index = match of.and_then(|of| add_body(coupled, of.body)) {
+            Some(index) => index,
+            None => {
+                // A collider without a body (or not yet attached) is static where it is.
+                let index = coupled.external.bodies.len() as u32;
+                coupled.external.bodies.push(Body::kinematic(
+                    world.translation,
+                    world.rotation,
+                    DVec3::ZERO,
+                    DVec3::ZERO,
+                ));
+                coupled.body_entities.push(Entity::PLACEHOLDER);
+                coupled.body_centres.push(DVec3::ZERO);
+                index
+            }
+        };
+        let body_pose = coupled.external.bodies[index as usize].pose();
+        coupled.external.colliders.push(ExternalCollider {
+            shape: AvianShape(collider.clone()),
+            body: index,
+            local: body_pose.relative(world),
+            restitution: f64::from(restitution.map_or(coupling.restitution, |r| r.coefficient)),
+            friction: f64::from(friction.map_or(coupling.friction, |f| f.dynamic_coefficient)),
+            layers: layers.map_or_else(Layers::default, |l| to_layers(*l)),
+        });
+    }
+    particle_layers(state, &layered, &mut coupled.external.particle_layers);
+    wake_touched(state, coupled);
+    coupled.external.begin_step(&state.solver);
+}
+
+/// A body's proxy: centre-of-mass frame, velocities, mass and world inverse inertia.
+fn proxy(
+    (kind, position, rotation, linear, angular, mass, inertia, centre, scale): (
+        &RigidBody,
+        &Position,
+        &Rotation,
+        &LinearVelocity,
+        &AngularVelocity,
+        &ComputedMass,
+        &ComputedAngularInertia,
+        &ComputedCenterOfMass,
+        Option<&GravityScale>,
+    ),
+    gravity: DVec3,
+) -> Body {
+    let turn = rotation_d(rotation);
+    let centre = to_d(position.0) + turn * to_d(centre.0);
+    let (velocity, spin) = (to_d(linear.0), angular_d(angular));
+    if !kind.is_dynamic() || mass.inverse() <= 0.0 {
+        let velocity = if kind.is_kinematic() { velocity } else { DVec3::ZERO };
+        let spin = if kind.is_kinematic() { spin } else { DVec3::ZERO };
+        return Body::kinematic(centre, turn, velocity, spin);
+    }
+    let mut body = Body::dynamic(
+        centre,
+        turn,
+        f64::from(mass.inverse()),
+        inverse_inertia_d(inertia, turn),
+    );
+    body.velocity = velocity;
+    body.angular_velocity = spin;
+    body.acceleration = gravity * f64::from(scale.map_or(1.0, |s| s.0));
+    body
+}
+
+/// Bounds of every island's particles, grown by their radii and what they can move in a step
+/// (`substeps` × their last substep's displacement). One box for all if the islands are stale.
+fn island_bounds(state: &VerletState, substeps: f64, out: &mut Vec<(DVec3, DVec3)>) {
+    out.clear();
+    let solver = &state.solver;
+    let bounds = |range: std::ops::Range<usize>| {
+        let particles = &solver.particles;
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for i in range {
+            let x = particles.position[i];
+            let reach = particles.radius[i] + (x - particles.previous[i]).length() * substeps;
+            lo = lo.min(x - reach);
+            hi = hi.max(x + reach);
+        }
+        (lo - MARGIN, hi + MARGIN)
+    };
+    if solver.is_organized() {
+        let islands = &solver.islands.list;
+        out.extend(islands.iter().map(|island| {
+            bounds(island.particles.start as usize..island.particles.end as usize)
+        }));
+    } else {
+        out.push(bounds(0..solver.particles.len()));
+    }
+}
+
+/// Slack added to bounds (m).
+const MARGIN: f64 = 0.05;
+
+/// A collider's bounds grown by how far its body can carry it in `step` seconds.
+fn swept_bounds(aabb: &ColliderAabb, body: Option<&Body>, step: f64) -> (DVec3, DVec3) {
+    let (lo, hi) = (to_d(aabb.min), to_d(aabb.max));
+    let reach = body.map_or(0.0, |body| {
+        let size = (hi - lo).length();
+        (body.velocity.length() + body.angular_velocity.length() * size) * step
+    });
+    (lo - reach - MARGIN, hi + reach + MARGIN)
+}
+
+/// avian's layers as the core's bit masks.
+fn to_layers(layers: CollisionLayers) -> Layers {
+    Layers {
+        memberships: layers.memberships.0,
+        filters: layers.filters.0,
+    }
+}
+
+/// Per-slot layers from `CollisionLayers` on particles or on their [`Composite`]; left empty
+/// (everyone on the default layers) when nothing has layers.
+fn particle_layers(
+    state: &VerletState,
+    layered: &Query<(Entity, &CollisionLayers, Option<&Composite>)>,
+    out: &mut Vec<Layers>,
+) {
+    out.clear();
+    if layered.is_empty() {
+        return;
+    }
+    out.resize(state.solver.particles.len(), Layers::default());
+    let mut set = |entity: Entity, layers: &CollisionLayers| {
+        if let Some(slot) = state.slot(entity) {
+            out[slot as usize] = to_layers(*layers);
+        }
+    };
+    // Composites first, so that a particle's own layers win.
+    for (_, layers, composite) in layered.iter() {
+        for &particle in composite.map_or(&[][..], |c| &c.particles[..]) {
+            set(particle, layers);
+        }
+    }
+    for (entity, layers, composite) in layered.iter() {
+        if composite.is_none() {
+            set(entity, layers);
+        }
+    }
+}
+
+/// Wakes sleeping islands that a moving body's collider reaches, and islands with a particle
+/// attached to a moving body.
+fn wake_touched(state: &mut VerletState, coupled: &Coupled) {
+    let external = &coupled.external;
+    let moving = |body: &Body| body.velocity != DVec3::ZERO || body.angular_velocity != DVec3::ZERO;
+    let islands = state.solver.islands.list.len();
+    for index in 0..islands.min(coupled.island_bounds.len()) {
+        if !state.solver.islands.list[index].asleep {
+            continue;
+        }
+        let (lo, hi) = coupled.island_bounds[index];
+        let range = state.solver.islands.list[index].particles.clone();
+        let touched = external.colliders.iter().any(|c| {
+            let body = &external.bodies[c.body as usize];
+            let (a, b) = c.shape.bounds(c.pose(&external.bodies));
+            moving(body) && a.cmple(hi).all() && b.cmpge(lo).all()
+        }) || external.attachments.iter().any(|a| {
+            range.contains(&a.particle) && moving(&external.bodies[a.body as usize])
+        });
+        if touched {
+            state.solver.set_asleep(index, false);
+        }
+    }
+}
+
+/// Hands every dynamic body the impulse the particles gave it during the step, and places it
+/// so that avian's step, which moves it by its new velocity, ends where the particle step's
+/// proxy ended (their paths within the tick differ by `Δv·Δt/2` otherwise: a light body
+/// whipped by a rope would open its attachment by centimetres).
+fn apply_impulses(
+    mut coupled: ResMut<Coupled>,
+    mut stats: ResMut<AvianCouplingStats>,
+    time: Res<Time>,
+    avian_substeps: Option<Res<SubstepCount>>,
+    mut bodies: ParamSet<(Query<Forces>, Query<(&mut Position, &mut Rotation)>)>,
+) {
+    let coupled = &mut *coupled;
+    *stats = AvianCouplingStats {
+        bodies: coupled.external.bodies.len(),
+        colliders: coupled.external.colliders.len(),
+        attachments: coupled.external.attachments.len(),
+        contacts: coupled.external.contacts,
+    };
+    let step = time.delta_secs_f64();
+    // avian integrates velocity then position per substep: a constant acceleration `a` moves a
+    // body by `a·Δt²·(n + 1)/(2n)` in a step of `n` substeps.
+    let n = f64::from(avian_substeps.map_or(6, |s| s.0).max(1));
+    let fall = step * step * (n + 1.0) / (2.0 * n);
+    let moved = coupled.external.bodies.iter_mut();
+    for ((body, &entity), &centre) in moved.zip(&coupled.body_entities).zip(&coupled.body_centres) {
+        let (linear, angular) = body.take_impulse();
+        if !body.is_dynamic() || (linear == DVec3::ZERO && angular == DVec3::ZERO) {
+            continue;
+        }
+        if let Ok(mut forces) = bodies.p0().get_mut(entity) {
+            forces.apply_linear_impulse(from_d(linear));
+            forces.apply_angular_impulse(angular_from_d(angular));
+        }
+        let mut poses = bodies.p1();
+        let Ok((mut position, mut rotation)) = poses.get_mut(entity) else {
+            continue;
+        };
+        let start = DQuat::from_scaled_axis(-body.angular_velocity * step) * body.rotation;
+        let velocity_after_impulse = body.velocity - body.acceleration * step;
+        let start_centre = body.position - velocity_after_impulse * step - body.acceleration * fall;
+        position.0 = from_d(start_centre - start * centre);
+        *rotation = rotation_from_d(start.normalize());
+    }
+}
+
+/// The substep the plugin is running (set by the step while the substep schedule runs).
+fn current_substep(state: &VerletState) -> Option<GlobalSubstep> {
+    state.substep
+}
+
+/// Substep hook: bodies predicted, attachments lumped (after integration).
+fn before_relax(mut coupled: ResMut<Coupled>, mut state: ResMut<VerletState>) {
+    if let Some(substep) = current_substep(&state) {
+        coupled.external.before_relax(&mut state.solver, &substep);
+    }
+}
+
+/// Substep hook: attachments pull their bodies (after the relaxation).
+fn after_relax(mut coupled: ResMut<Coupled>, mut state: ResMut<VerletState>) {
+    if current_substep(&state).is_some() {
+        coupled.external.after_relax(&mut state.solver);
+    }
+}
+
+/// Substep hook: contacts with avian colliders, body velocities (after the crate's colliders).
+fn after_constrain(mut coupled: ResMut<Coupled>, mut state: ResMut<VerletState>) {
+    if let Some(substep) = current_substep(&state) {
+        coupled.external.after_constrain(&mut state.solver, &substep);
+    }
+}

@@ -1,0 +1,46 @@
+#![doc = include_str!("avian/docs.md")]
+//!
+//! This module is for `avian2d` (feature `avian2d`): particles move in the XY plane, bodies turn
+//! about Z.
+
+use ::avian2d::math::Dir;
+use ::avian2d::prelude::*;
+
+/// A body-local anchor (2D).
+pub type Anchor = Vec2;
+
+macro_rules! module_name_doc {
+    () => {
+        "avian2d"
+    };
+}
+
+fn to_d(v: Vec2) -> DVec3 {
+    DVec3::new(f64::from(v.x), f64::from(v.y), 0.0)
+}
+
+fn from_d(v: DVec3) -> Vec2 {
+    Vec2::new(v.x as f32, v.y as f32)
+}
+
+fn rotation_d(rotation: &Rotation) -> DQuat {
+    DQuat::from_rotation_z(f64::from(rotation.as_radians()))
+}
+
+fn rotation_from_d(rotation: DQuat) -> Rotation {
+    Rotation::radians((2.0 * rotation.z.atan2(rotation.w)) as f32)
+}
+
+fn angular_d(angular: &AngularVelocity) -> DVec3 {
+    DVec3::new(0.0, 0.0, f64::from(angular.0))
+}
+
+fn angular_from_d(angular: DVec3) -> f32 {
+    angular.z as f32
+}
+
+fn inverse_inertia_d(inertia: &ComputedAngularInertia, _: DQuat) -> DMat3 {
+    DMat3::from_diagonal(DVec3::new(0.0, 0.0, f64::from(inertia.inverse())))
+}
+
+include!("avian/common.rs");

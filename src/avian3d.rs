@@ -1,0 +1,49 @@
+#![doc = include_str!("avian/docs.md")]
+//!
+//! This module is for `avian3d` (feature `avian3d`).
+
+use ::avian3d::math::Dir;
+use ::avian3d::prelude::*;
+
+/// A body-local anchor (3D).
+pub type Anchor = Vec3;
+
+macro_rules! module_name_doc {
+    () => {
+        "avian3d"
+    };
+}
+
+fn to_d(v: Vec3) -> DVec3 {
+    v.as_dvec3()
+}
+
+fn from_d(v: DVec3) -> Vec3 {
+    v.as_vec3()
+}
+
+fn rotation_d(rotation: &Rotation) -> DQuat {
+    rotation.0.as_dquat()
+}
+
+fn rotation_from_d(rotation: DQuat) -> Rotation {
+    Rotation(rotation.as_quat())
+}
+
+fn angular_d(angular: &AngularVelocity) -> DVec3 {
+    angular.0.as_dvec3()
+}
+
+fn angular_from_d(angular: DVec3) -> Vec3 {
+    angular.as_vec3()
+}
+
+fn inverse_inertia_d(inertia: &ComputedAngularInertia, rotation: DQuat) -> DMat3 {
+    inertia
+        .rotated(rotation.as_quat())
+        .inverse()
+        .to_mat3()
+        .as_dmat3()
+}
+
+include!("avian/common.rs");

@@ -1,0 +1,272 @@
+//! Particles against shapes the core does not know (e.g. avian colliders), reached through the
+//! small [`ContactShape`] trait, with two-way response on the [`Body`] a shape belongs to.
+//!
+//! Per due particle and per collider whose bounds overlap the particle's swept box:
+//! 1. **Sweep** (no tunnelling): if the particle moved more than half its radius in the substep
+//!    and started outside, a ray from its previous to its current position is cast against the
+//!    shape; a hit puts the particle on the hit point, one radius out along the hit normal.
+//! 2. **Projection** otherwise: the closest surface point gives the normal and the penetration
+//!    (inside points are pushed to the surface, outside points closer than the radius out to it).
+//! 3. **Two-way split** (XPBD contact, Müller et al. 2020 §3.5): the penetration `d` is shared by
+//!    generalised inverse masses — `Δλ = d / (w_p + w_b)`, the particle moves `w_p·Δλ` along the
+//!    normal and the body `−Δλ` at the contact arm ([`Body::correct`]).
+//! 4. **Response**, as the crate's own colliders do it ([`Collider`](super::Collider)): the
+//!    particle's velocity relative to the surface point is reflected with `restitution` (above
+//!    a resting speed) and loses `friction × |normal speed|` tangentially. The change is split
+//!    by the same masses; the body's part is an impulse ([`Body::push`]) applied after its
+//!    velocity update. Momentum is exchanged exactly: what the particle gains the body loses.
+//!
+//! The sweep uses the shape's pose at the end of the substep (a particle hit by a fast, thin,
+//! moving shape can still pass through it).
+
+use super::bodies::{Body, Pose};
+use glam::DVec3;
+
+/// What the core needs from a shape it does not own. Implemented by the Bevy layer (e.g. for
+/// avian's `Collider`); poses are world placements of the shape.
+///
+/// ```
+/// use bevy_verlet_physics::solver::{ContactShape, Pose};
+/// use glam::DVec3;
+/// /// A ball of radius 1.
+/// struct Ball;
+/// impl ContactShape for Ball {
+///     fn project(&self, pose: Pose, point: DVec3) -> (DVec3, bool) {
+///         let d = point - pose.translation;
+///         (pose.translation + d.normalize_or(DVec3::Y), d.length() < 1.0)
+///     }
+///     fn cast_ray(&self, _: Pose, _: DVec3, _: DVec3, _: f64) -> Option<(f64, DVec3)> { None }
+///     fn bounds(&self, pose: Pose) -> (DVec3, DVec3) { (pose.translation - 1.0, pose.translation + 1.0) }
+/// }
+/// assert!(Ball.project(Pose::IDENTITY, DVec3::new(0.5, 0.0, 0.0)).1);
+/// ```
+pub trait ContactShape: Sync {
+    /// The surface point closest to `point` and whether `point` is inside the shape placed at
+    /// `pose` (the shape as a hollow surface: inside points project to the boundary).
+    fn project(&self, pose: Pose, point: DVec3) -> (DVec3, bool);
+    /// The first hit of the ray `origin + t·direction` (`direction` a unit vector),
+    /// `0 ≤ t ≤ max`: `t` and the outward unit normal there.
+    fn cast_ray(
+        &self,
+        pose: Pose,
+        origin: DVec3,
+        direction: DVec3,
+        max: f64,
+    ) -> Option<(f64, DVec3)>;
+    /// Axis-aligned world bounds `(min, max)` of the shape placed at `pose`.
+    fn bounds(&self, pose: Pose) -> (DVec3, DVec3);
+}
+
+/// Collision layers as bit masks: two sides interact when each one's memberships meet the
+/// other's filters (avian's rule).
+///
+/// ```
+/// use bevy_verlet_physics::solver::Layers;
+/// let ropes = Layers { memberships: 0b01, filters: 0b11 };
+/// let ghosts = Layers { memberships: 0b10, filters: 0b10 };
+/// assert!(!ropes.interacts_with(ghosts));
+/// assert!(ropes.interacts_with(Layers::default()));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layers {
+    /// Layers this side belongs to.
+    pub memberships: u32,
+    /// Layers this side interacts with.
+    pub filters: u32,
+}
+
+impl Default for Layers {
+    /// Layer 0, interacting with every layer.
+    fn default() -> Self {
+        Self {
+            memberships: 1,
+            filters: u32::MAX,
+        }
+    }
+}
+
+impl Layers {
+    /// Whether the two sides collide.
+    pub fn interacts_with(self, other: Layers) -> bool {
+        self.memberships & other.filters != 0 && other.memberships & self.filters != 0
+    }
+}
+
+/// A shape placed on a body, with its surface response.
+#[derive(Clone, Debug)]
+pub struct ExternalCollider<S> {
+    /// The shape.
+    pub shape: S,
+    /// Index of the body it is part of (static shapes: an immovable body).
+    pub body: u32,
+    /// Placement in the body's centre-of-mass frame.
+    pub local: Pose,
+    /// Fraction of the normal speed kept after a bounce.
+    pub restitution: f64,
+    /// Coulomb friction coefficient.
+    pub friction: f64,
+    /// Collision layers.
+    pub layers: Layers,
+}
+
+impl<S> ExternalCollider<S> {
+    /// The collider's world placement for its body's current pose.
+    pub fn pose(&self, bodies: &[Body]) -> Pose {
+        bodies[self.body as usize].pose().then(self.local)
+    }
+}
+
+/// One particle as the contact pass sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct ContactParticle {
+    /// Slot.
+    pub slot: usize,
+    /// Collision layers.
+    pub layers: Layers,
+    /// The body it is attached to, if any (never collides with it).
+    pub attached_to: Option<u32>,
+    /// `|g|·h²` of its substep (for the resting speed).
+    pub gravity_step: f64,
+}
+
+/// Resolves the contacts of one particle against `colliders` (whose world poses and bounds for
+/// this substep are `placed`). Body impulses from the response are added to `impulses` as
+/// `(body, arm, impulse)` (mass × displacement per substep), to apply after the bodies' velocity
+/// update. Returns whether the particle touched anything.
+pub fn collide_particle<S: ContactShape>(
+    particle: ContactParticle,
+    (position, previous, inverse_mass, radius): (&mut DVec3, &mut DVec3, f64, f64),
+    colliders: &[ExternalCollider<S>],
+    placed: &[(Pose, DVec3, DVec3)],
+    bodies: &mut [Body],
+    impulses: &mut Vec<(u32, DVec3, DVec3)>,
+) -> bool {
+    if inverse_mass <= 0.0 || !position.is_finite() {
+        return false;
+    }
+    let mut touched = false;
+    for (collider, &(pose, lo, hi)) in colliders.iter().zip(placed) {
+        let (swept_lo, swept_hi) = (position.min(*previous), position.max(*previous));
+        let overlaps = (swept_lo - radius).cmple(hi).all() && (swept_hi + radius).cmpge(lo).all();
+        if !overlaps
+            || !particle.layers.interacts_with(collider.layers)
+            || particle.attached_to == Some(collider.body)
+        {
+            continue;
+        }
+        let Some((normal, depth)) =
+            penetration(&collider.shape, pose, *position, *previous, radius)
+        else {
+            continue;
+        };
+        touched = true;
+        let contact = Contact {
+            normal,
+            depth,
+            collider,
+            gravity_step: particle.gravity_step,
+        };
+        resolve(
+            contact,
+            (position, previous, inverse_mass, radius),
+            bodies,
+            impulses,
+        );
+    }
+    touched
+}
+
+/// The contact normal and penetration of a particle of `radius` moving from `previous` to
+/// `position` against `shape` at `pose`, or `None`.
+fn penetration(
+    shape: &impl ContactShape,
+    pose: Pose,
+    position: DVec3,
+    previous: DVec3,
+    radius: f64,
+) -> Option<(DVec3, f64)> {
+    let motion = position - previous;
+    let distance = motion.length();
+    if distance > 0.5 * radius && distance.is_finite() {
+        let direction = motion / distance;
+        let (_, started_inside) = shape.project(pose, previous);
+        if !started_inside
+            && let Some((t, normal)) = shape.cast_ray(pose, previous, direction, distance)
+        {
+            // Back to the hit point, one radius out: the penetration is measured along the
+            // normal from the current position.
+            let target = previous + direction * t + normal * radius;
+            let depth = (target - position).dot(normal);
+            if depth > 0.0 {
+                return Some((normal, depth));
+            }
+        }
+    }
+    let (surface, inside) = shape.project(pose, position);
+    let offset = position - surface;
+    let gap = offset.length();
+    if inside {
+        let normal = (-offset).try_normalize()?;
+        Some((normal, gap + radius))
+    } else if gap < radius {
+        let normal = offset.try_normalize()?;
+        Some((normal, radius - gap))
+    } else {
+        None
+    }
+}
+
+struct Contact<'a, S> {
+    normal: DVec3,
+    depth: f64,
+    collider: &'a ExternalCollider<S>,
+    gravity_step: f64,
+}
+
+/// Splits the penetration and the velocity response between the particle and the body.
+fn resolve<S>(
+    contact: Contact<'_, S>,
+    (position, previous, w_particle, radius): (&mut DVec3, &mut DVec3, f64, f64),
+    bodies: &mut [Body],
+    impulses: &mut Vec<(u32, DVec3, DVec3)>,
+) {
+    let Contact {
+        normal,
+        depth,
+        collider,
+        gravity_step,
+    } = contact;
+    let body = &mut bodies[collider.body as usize];
+    // The surface point: one radius minus the penetration behind the particle's centre.
+    let arm = *position - normal * (radius - depth) - body.position;
+    let w_body = body.inverse_mass_at(arm, normal);
+    let share = w_particle / (w_particle + w_body);
+    let lambda = depth / (w_particle + w_body);
+    // Velocities (per substep) before the projection, relative to the surface point.
+    let surface_motion = surface_motion(body, arm);
+    let velocity = *position - *previous;
+    let relative = velocity - surface_motion;
+    let responded = super::colliders::respond(
+        relative,
+        normal,
+        (collider.restitution, collider.friction),
+        2.0 * gravity_step,
+    );
+    let change = responded - relative;
+    *position += normal * (w_particle * lambda);
+    body.correct(arm, -normal * lambda);
+    *previous = *position - (velocity + change * share);
+    if w_body > 0.0 {
+        // The body's part of the velocity change, less what its positional correction already
+        // puts into its velocity (−λ·n over h), so the exchange is exactly equal and opposite.
+        let impulse = -change / (w_particle + w_body) + normal * lambda;
+        impulses.push((collider.body, arm, impulse));
+    }
+}
+
+/// How far the body's material point at `arm` moved in this substep.
+fn surface_motion(body: &Body, arm: DVec3) -> DVec3 {
+    let before = body.previous_pose();
+    let local = body.rotation.inverse() * arm;
+    body.position + arm - (before.translation + before.rotation * local)
+}

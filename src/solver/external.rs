@@ -1,0 +1,236 @@
+//! Another engine's rigid bodies and colliders inside the particle step: the proxies
+//! ([`Body`]), the particles attached to them ([`Attachment`]) and the colliders particles meet
+//! ([`ExternalCollider`]), run at three points of every substep:
+//!
+//! ```text
+//! integrate → before_relax (bodies predicted, attachments lumped)
+//!           → relax × N
+//!           → after_relax (attachments hand their pull to the bodies)
+//!           → constrain (the crate's colliders)
+//!           → after_constrain (contacts with external colliders, body velocities, impulses)
+//! ```
+//!
+//! After the step, [`Body::take_impulse`] on each body gives what the particles did to it; the
+//! other engine applies that impulse and steps its bodies (see the avian integration).
+//! A scene without bodies pays nothing: every pass returns at once when its list is empty.
+
+use super::attachments::{AttachmentScratch, lump, release};
+use super::bodies::{Body, Pose};
+use super::contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle};
+use super::{Attachment, GlobalSubstep, Solver, Substep};
+use glam::DVec3;
+use std::ops::Range;
+
+/// Bodies, attachments and colliders of another engine for one fixed step (see the
+/// [module docs](self)). The Bevy layer fills the public lists before the step.
+///
+/// ```
+/// use bevy_verlet_physics::solver::*;
+/// use glam::{DMat3, DQuat, DVec3};
+/// # struct NoShape;
+/// # impl ContactShape for NoShape {
+/// #     fn project(&self, _: Pose, p: DVec3) -> (DVec3, bool) { (p, false) }
+/// #     fn cast_ray(&self, _: Pose, _: DVec3, _: DVec3, _: f64) -> Option<(f64, DVec3)> { None }
+/// #     fn bounds(&self, _: Pose) -> (DVec3, DVec3) { (DVec3::ZERO, DVec3::ZERO) }
+/// # }
+/// // A 1 kg body hangs from a 0.1 kg particle, held by a 1 m stick from a pinned one.
+/// let mut solver = Solver::default();
+/// let top = solver.add_particle(DVec3::ZERO, 0.0);
+/// let end = solver.add_particle(DVec3::new(0.0, -1.0, 0.0), 10.0);
+/// solver.sticks.push([top, end], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+/// solver.organize();
+/// let mut external = External::<NoShape>::default();
+/// let mut body = Body::dynamic(DVec3::new(0.0, -1.0, 0.0), DQuat::IDENTITY, 1.0, DMat3::IDENTITY);
+/// body.acceleration = DVec3::new(0.0, -9.81, 0.0);
+/// external.bodies.push(body);
+/// external.attachments.push(Attachment::new(end, 0, DVec3::ZERO));
+/// let config = StepConfig::default();
+/// for _ in 0..60 {
+///     external.begin_step(&solver);
+///     let count = solver.begin_step(&config);
+///     for index in 1..=count {
+///         let substep = GlobalSubstep { config, index, count, plain: false };
+///         solver.integrate_substep(&substep, &Serial);
+///         external.before_relax(&mut solver, &substep);
+///         solver.relax_substep(&substep, &Serial);
+///         external.after_relax(&mut solver);
+///         solver.constrain_substep(&substep, &Serial);
+///         external.after_constrain(&mut solver, &substep);
+///     }
+///     solver.finish_step();
+///     // The rope held the body: an impulse of about m·g·Δt upwards per step.
+///     let (impulse, _) = external.bodies[0].take_impulse();
+///     assert!((impulse.y - 9.81 / 60.0).abs() < 0.02, "{impulse}");
+/// }
+/// ```
+#[derive(Clone, Debug)]
+pub struct External<S> {
+    /// Body proxies; colliders and attachments refer to them by index.
+    pub bodies: Vec<Body>,
+    /// Colliders particles meet.
+    pub colliders: Vec<ExternalCollider<S>>,
+    /// Particles fixed to bodies.
+    pub attachments: Vec<Attachment>,
+    /// Collision layers per particle slot; empty means [`Layers::default`] for all.
+    pub particle_layers: Vec<Layers>,
+    /// Contacts resolved in the last step.
+    pub contacts: usize,
+    attached_to: Vec<u32>,
+    scratch: AttachmentScratch,
+    placed: Vec<(Pose, DVec3, DVec3)>,
+    impulses: Vec<(u32, DVec3, DVec3)>,
+    due: Vec<(Range<usize>, Substep)>,
+    h: f64,
+}
+
+impl<S> Default for External<S> {
+    fn default() -> Self {
+        Self {
+            bodies: Vec::new(),
+            colliders: Vec::new(),
+            attachments: Vec::new(),
+            particle_layers: Vec::new(),
+            contacts: 0,
+            attached_to: Vec::new(),
+            scratch: AttachmentScratch::default(),
+            placed: Vec::new(),
+            impulses: Vec::new(),
+            due: Vec::new(),
+            h: 0.0,
+        }
+    }
+}
+
+/// No body is attached to this particle.
+const NOT_ATTACHED: u32 = u32::MAX;
+
+impl<S: ContactShape> External<S> {
+    /// Whether there is nothing to couple (every pass is skipped).
+    pub fn is_empty(&self) -> bool {
+        self.bodies.is_empty()
+    }
+
+    /// Starts a step after the lists were filled: indexes attachments by particle.
+    pub fn begin_step(&mut self, solver: &Solver) {
+        self.contacts = 0;
+        self.attached_to.clear();
+        if self.attachments.is_empty() {
+            return;
+        }
+        self.attached_to
+            .resize(solver.particles.len(), NOT_ATTACHED);
+        for a in &self.attachments {
+            if let Some(slot) = self.attached_to.get_mut(a.particle as usize) {
+                *slot = a.body;
+            }
+        }
+    }
+
+    /// After integration: predicts the bodies' poses for the substep and lumps attachments.
+    pub fn before_relax(&mut self, solver: &mut Solver, global: &GlobalSubstep) {
+        if self.is_empty() {
+            return;
+        }
+        self.h = global.config.timestep / f64::from(global.count.max(1));
+        for body in &mut self.bodies {
+            body.begin_substep(self.h);
+        }
+        solver.due_ranges(global, &mut self.due);
+        if self.attachments.is_empty() {
+            return;
+        }
+        let due = &self.due;
+        let is_due = |p: usize| due.iter().any(|(range, _)| range.contains(&p));
+        lump(
+            &self.attachments,
+            &self.bodies,
+            &mut solver.particles,
+            &mut self.scratch,
+            is_due,
+        );
+    }
+
+    /// After the relaxation: attachments move their bodies.
+    pub fn after_relax(&mut self, solver: &mut Solver) {
+        if self.attachments.is_empty() || self.bodies.is_empty() {
+            return;
+        }
+        release(
+            &mut self.attachments,
+            &mut self.bodies,
+            &mut solver.particles,
+            &self.scratch,
+        );
+    }
+
+    /// After the crate's colliders: contacts with the external colliders, then the bodies'
+    /// velocities and the contacts' velocity impulses.
+    pub fn after_constrain(&mut self, solver: &mut Solver, _global: &GlobalSubstep) {
+        if self.is_empty() {
+            return;
+        }
+        self.place_colliders();
+        self.impulses.clear();
+        for k in 0..self.due.len() {
+            let (range, substep) = self.due[k].clone();
+            self.collide_range(solver, range, &substep);
+        }
+        for body in &mut self.bodies {
+            body.end_substep(self.h);
+        }
+        for &(body, arm, impulse) in &self.impulses {
+            self.bodies[body as usize].push(arm, impulse);
+        }
+    }
+
+    fn place_colliders(&mut self) {
+        self.placed.clear();
+        for collider in &self.colliders {
+            let pose = collider.pose(&self.bodies);
+            let (lo, hi) = collider.shape.bounds(pose);
+            self.placed.push((pose, lo, hi));
+        }
+    }
+
+    fn collide_range(&mut self, solver: &mut Solver, range: Range<usize>, substep: &Substep) {
+        if self.colliders.is_empty() {
+            return;
+        }
+        let gravity_step = substep.gravity.length() * substep.h * substep.h;
+        let particles = &mut solver.particles;
+        let start = self.impulses.len();
+        for slot in range {
+            let particle = ContactParticle {
+                slot,
+                layers: self.particle_layers.get(slot).copied().unwrap_or_default(),
+                attached_to: self
+                    .attached_to
+                    .get(slot)
+                    .copied()
+                    .filter(|&b| b != NOT_ATTACHED),
+                gravity_step,
+            };
+            let (position, previous) =
+                (&mut particles.position[slot], &mut particles.previous[slot]);
+            let state = (
+                position,
+                previous,
+                particles.inverse_mass[slot],
+                particles.radius[slot],
+            );
+            let touched = collide_particle(
+                particle,
+                state,
+                &self.colliders,
+                &self.placed,
+                &mut self.bodies,
+                &mut self.impulses,
+            );
+            self.contacts += usize::from(touched);
+        }
+        // Impulses were in mass × displacement per substep: per second for the bodies.
+        for impulse in &mut self.impulses[start..] {
+            impulse.2 /= substep.h;
+        }
+    }
+}

@@ -1,0 +1,368 @@
+//! The avian2d integration, headless (`cargo test --features avian2d`): particles resting on
+//! avian colliders, a rope pendulum with a dynamic avian bob against the rigid pendulum's period,
+//! momentum in a particle–body collision, no tunnelling, layers, and two-way attachments.
+
+use avian2d::prelude::*;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_verlet_physics::avian2d::{AvianCouplingStats, BodyAttachment, VerletAvianPlugin};
+use bevy_verlet_physics::prelude::*;
+
+/// Bevy's default fixed timestep (64 Hz).
+const DT: f32 = 1.0 / 64.0;
+
+/// A headless app with avian, the particles and the coupling; one fixed step per update.
+fn app(gravity: Vec2) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        PhysicsPlugins::default(),
+        VerletPlugin::default(),
+        VerletAvianPlugin,
+    ))
+    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
+    .insert_resource(avian2d::prelude::Gravity(gravity))
+    .insert_resource(bevy_verlet_physics::Gravity(gravity.extend(0.0)));
+    app.finish();
+    app.cleanup();
+    app.update();
+    app
+}
+
+fn step(app: &mut App, n: usize) {
+    for _ in 0..n {
+        app.update();
+    }
+}
+
+fn particle(app: &App, entity: Entity) -> Particle {
+    app.world().get::<Particle>(entity).unwrap().clone()
+}
+
+fn spawn(app: &mut App, bundle: impl Bundle) -> Entity {
+    app.world_mut().spawn(bundle).id()
+}
+
+/// Distance from a particle's centre to the surface of a static collider (negative inside).
+fn clearance(app: &App, particle: Vec3, collider: Entity) -> f32 {
+    let world = app.world();
+    let shape = world.get::<Collider>(collider).unwrap();
+    let position = world.get::<Position>(collider).unwrap();
+    let rotation = world.get::<Rotation>(collider).unwrap();
+    let point = particle.truncate();
+    let distance = shape.distance_to_point(position.0, *rotation, point, false);
+    if shape.contains_point(position.0, *rotation, point) {
+        -distance
+    } else {
+        distance
+    }
+}
+
+/// Drops a particle of radius 5 cm onto `collider` and returns (largest penetration over the
+/// last second, largest movement over the last second) after 3 s.
+fn rest_on(collider: Collider, at: Vec2, turn: f32, drop_from: Vec2) -> (f32, f32) {
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let wall = spawn(
+        &mut app,
+        (
+            RigidBody::Static,
+            collider,
+            Friction::new(1.0),
+            Transform::from_translation(at.extend(0.0)).with_rotation(Quat::from_rotation_z(turn)),
+        ),
+    );
+    let p = spawn(
+        &mut app,
+        Particle::new(drop_from.extend(0.0)).with_radius(0.05),
+    );
+    step(&mut app, 128);
+    let start = particle(&app, p).position;
+    let (mut penetration, mut moved) = (0.0f32, 0.0f32);
+    for _ in 0..64 {
+        step(&mut app, 1);
+        let x = particle(&app, p).position;
+        penetration = penetration.max(0.05 - clearance(&app, x, wall));
+        moved = moved.max((x - start).length());
+    }
+    println!("penetration {penetration:.2e} m, moved {moved:.2e} m over the last second");
+    (penetration, moved)
+}
+
+#[test]
+fn a_particle_rests_on_a_rotated_box() {
+    // A 2 × 0.5 box turned 20° about its centre; the particle lands above its centre.
+    let (penetration, moved) = rest_on(
+        Collider::rectangle(2.0, 0.5),
+        Vec2::ZERO,
+        20f32.to_radians(),
+        Vec2::new(0.0, 1.0),
+    );
+    assert!(penetration < 1e-3, "penetration {penetration} m");
+    assert!(moved < 1e-3, "jitter or creep {moved} m");
+}
+
+#[test]
+fn a_particle_rests_on_a_capsule() {
+    // A capsule lying on its side (radius 0.3, segment 2 m): the particle lands on its top.
+    let (penetration, moved) = rest_on(
+        Collider::capsule(0.3, 2.0),
+        Vec2::ZERO,
+        90f32.to_radians(),
+        Vec2::new(0.2, 1.0),
+    );
+    assert!(penetration < 1e-3, "penetration {penetration} m");
+    assert!(moved < 1e-3, "jitter or creep {moved} m");
+}
+
+/// Period of a rigid (compound) pendulum released at `amplitude` from rest:
+/// `T = 4·√(I/(m g d))·K(sin(θ₀/2))`, K by the arithmetic–geometric mean.
+fn rigid_period(inertia: f64, mass_times_arm: f64, g: f64, amplitude: f64) -> f64 {
+    let k = (amplitude / 2.0).sin();
+    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
+    for _ in 0..20 {
+        (a, b) = ((a + b) / 2.0, (a * b).sqrt());
+    }
+    let elliptic_k = std::f64::consts::PI / (2.0 * a);
+    4.0 * (inertia / (mass_times_arm * g)).sqrt() * elliptic_k
+}
+
+#[test]
+fn a_rope_pendulum_with_an_avian_bob_keeps_the_rigid_period() {
+    // A 1 m rope of 10 links (10 g per particle) from a pin, a 1 kg avian ball at its end,
+    // released at 30°. Reference: the rigid pendulum with the same masses at the same radii.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let (links, length, amplitude) = (10usize, 1.0f32, 30f32.to_radians());
+    let direction = Vec3::new(amplitude.sin(), -amplitude.cos(), 0.0);
+    let end = direction * length;
+    let bob = spawn(
+        &mut app,
+        (
+            RigidBody::Dynamic,
+            Collider::circle(0.05),
+            Mass(1.0),
+            Transform::from_translation(end),
+        ),
+    );
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::ZERO, end, links)
+            .mass(0.01)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    let last = *rope.particles.last().unwrap();
+    app.world_mut()
+        .entity_mut(last)
+        .insert(BodyAttachment::new(bob, Vec2::ZERO));
+    // Rigid reference: particles 1..=10 at r = i/10 m (the last one sits on the bob), bob at 1 m.
+    let radii = (1..=links).map(|i| f64::from(length) * i as f64 / links as f64);
+    let inertia = radii.clone().map(|r| 0.01 * r * r).sum::<f64>() + 1.0;
+    let moment = radii.map(|r| 0.01 * r).sum::<f64>() + 1.0;
+    let expected = rigid_period(inertia, moment, 9.81, f64::from(amplitude));
+    // Measure three periods from the bob's upward crossings of x = 0.
+    let mut crossings = Vec::new();
+    let mut last_x = app.world().get::<Position>(bob).unwrap().0.x;
+    let (mut swing, mut last_swing) = (0.0f32, 0.0f32);
+    for k in 1..=(64.0 * 3.5 * expected) as usize {
+        step(&mut app, 1);
+        let x = app.world().get::<Position>(bob).unwrap().0.x;
+        if last_x < 0.0 && x >= 0.0 {
+            // Linear interpolation inside the step.
+            let t = (k as f32 - 1.0 + -last_x / (x - last_x)) * DT;
+            crossings.push(f64::from(t));
+        }
+        swing = swing.max(x);
+        if last_x < 0.0 && x >= 0.0 {
+            (last_swing, swing) = (swing, 0.0);
+        }
+        last_x = x;
+    }
+    assert!(crossings.len() >= 3, "{crossings:?}");
+    let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+    let error = (measured / expected - 1.0).abs();
+    println!(
+        "period {measured:.5} s, rigid {expected:.5} s, error {:.3} %",
+        error * 100.0
+    );
+    assert!(error < 1e-3, "period {measured} s vs rigid {expected} s");
+    // Energy kept: the last full swing still reaches 98 % of the release's sideways offset.
+    let released = amplitude.sin() * length;
+    println!("last swing {last_swing:.4} m of {released:.4} m");
+    assert!(
+        last_swing > 0.98 * released,
+        "swing {last_swing} m of {released} m"
+    );
+    // The rope held: the bob is where the rope's end is (within 1 cm after avian's step).
+    let gap = (app.world().get::<Position>(bob).unwrap().0
+        - particle(&app, last).position.truncate())
+    .length();
+    assert!(gap < 0.01, "bob {gap} m off the rope's end");
+}
+
+#[test]
+fn momentum_is_kept_when_a_particle_hits_a_body() {
+    // No gravity: a 0.5 kg particle at 5 m/s hits a resting 1 kg ball off-centre (bounce 0.5).
+    let mut app = app(Vec2::ZERO);
+    let ball = spawn(
+        &mut app,
+        (
+            RigidBody::Dynamic,
+            Collider::circle(0.2),
+            Mass(1.0),
+            Restitution::new(0.5),
+            Friction::new(0.3),
+            Transform::from_xyz(0.0, 0.05, 0.0),
+        ),
+    );
+    let p = spawn(
+        &mut app,
+        Particle::new(Vec3::new(-1.0, 0.0, 0.0))
+            .with_mass(0.5)
+            .with_radius(0.02)
+            .with_velocity(Vec3::new(5.0, 0.0, 0.0), DT),
+    );
+    let before = Vec2::new(2.5, 0.0);
+    step(&mut app, 64);
+    let after = particle(&app, p).velocity(DT).truncate() * 0.5
+        + app.world().get::<LinearVelocity>(ball).unwrap().0 * 1.0;
+    let contacts = app.world().resource::<AvianCouplingStats>();
+    println!("momentum before {before}, after {after}; {contacts:?}");
+    assert!(
+        app.world().get::<LinearVelocity>(ball).unwrap().0.x > 1.0,
+        "the ball was pushed"
+    );
+    assert!(
+        (after - before).length() / before.length() < 0.01,
+        "momentum {before} → {after}"
+    );
+}
+
+#[test]
+fn a_fast_particle_does_not_pass_through_a_thin_wall() {
+    // 50 m/s (0.1 m per substep at 8 × 64 Hz) against a 1 cm wall.
+    let mut app = app(Vec2::ZERO);
+    spawn(
+        &mut app,
+        (RigidBody::Static, Collider::rectangle(0.01, 2.0)),
+    );
+    let p = spawn(
+        &mut app,
+        Particle::new(Vec3::new(-1.0, 0.0, 0.0))
+            .with_radius(0.005)
+            .with_velocity(Vec3::new(50.0, 0.0, 0.0), DT),
+    );
+    step(&mut app, 64);
+    let x = particle(&app, p).position.x;
+    assert!(x < -0.005 - 0.005 + 1e-4, "the particle is at x = {x}");
+}
+
+#[test]
+fn collision_layers_on_a_composite_let_a_rope_pass() {
+    // A rope on layer 1 that only meets layer 1 falls through a floor on layer 0;
+    // an identical rope without layers lands on it.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    spawn(&mut app, (RigidBody::Static, Collider::rectangle(4.0, 0.2)));
+    let (ghost, solid) = {
+        let world = app.world_mut();
+        let ghost = RopeBuilder::new(Vec3::new(-1.5, 1.0, 0.0), Vec3::new(-0.5, 1.0, 0.0), 5)
+            .radius(0.02)
+            .spawn(&mut world.commands());
+        let solid = RopeBuilder::new(Vec3::new(0.5, 1.0, 0.0), Vec3::new(1.5, 1.0, 0.0), 5)
+            .radius(0.02)
+            .spawn(&mut world.commands());
+        world.flush();
+        (ghost, solid)
+    };
+    app.world_mut()
+        .entity_mut(ghost.root)
+        .insert(CollisionLayers::new(LayerMask(0b10), LayerMask(0b10)));
+    step(&mut app, 64);
+    let ghost_y = particle(&app, ghost.particles[2]).position.y;
+    let solid_y = particle(&app, solid.particles[2]).position.y;
+    assert!(
+        ghost_y < -0.5,
+        "the layered rope fell through: y = {ghost_y}"
+    );
+    assert!(
+        (solid_y - 0.12).abs() < 2e-3,
+        "the other rope rests on the floor: y = {solid_y}"
+    );
+}
+
+#[test]
+fn a_heavy_rope_drags_a_light_body_and_a_kinematic_body_carries_its_particle() {
+    // A 10-particle, 1 kg rope pinned at one end and released horizontally, with a 0.1 kg
+    // avian box on its free end: the box swings down with the rope, the attachment stays shut.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let light = spawn(
+        &mut app,
+        (
+            RigidBody::Dynamic,
+            Collider::rectangle(0.1, 0.1),
+            Mass(0.1),
+            Transform::from_xyz(1.0, 0.0, 0.0),
+        ),
+    );
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::ZERO, Vec3::X, 9)
+            .mass(0.1)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    let end = *rope.particles.last().unwrap();
+    app.world_mut()
+        .entity_mut(end)
+        .insert(BodyAttachment::new(light, Vec2::new(0.0, 0.05)));
+    // A kinematic platform moving at 1 m/s carries a particle attached to it.
+    let platform = spawn(
+        &mut app,
+        (
+            RigidBody::Kinematic,
+            Collider::rectangle(0.5, 0.1),
+            LinearVelocity(Vec2::new(1.0, 0.0)),
+            Transform::from_xyz(5.0, 0.0, 0.0),
+        ),
+    );
+    let rider = spawn(
+        &mut app,
+        (
+            Particle::new(Vec3::new(5.0, 0.05, 0.0)),
+            BodyAttachment::new(platform, Vec2::new(0.0, 0.05)),
+        ),
+    );
+    let (mut widest, mut lowest, mut leftmost) = (0.0f32, 0.0f32, 0.0f32);
+    for _ in 0..64 {
+        step(&mut app, 1);
+        let world = app.world();
+        let (position, rotation) = (
+            world.get::<Position>(light).unwrap(),
+            world.get::<Rotation>(light).unwrap(),
+        );
+        let anchor = position.0 + *rotation * Vec2::new(0.0, 0.05);
+        widest = widest.max((anchor - particle(&app, end).position.truncate()).length());
+        (lowest, leftmost) = (lowest.min(position.0.y), leftmost.min(position.0.x));
+    }
+    // Through the bottom (1 m below the pin, less the rope's sag) and up the other side.
+    assert!(
+        lowest < -0.9,
+        "the box swung down with the rope: lowest y = {lowest}"
+    );
+    assert!(
+        leftmost < -0.9,
+        "and up the other side: leftmost x = {leftmost}"
+    );
+    assert!(widest < 0.01, "the attachment opened by {widest} m");
+    let platform_x = app.world().get::<Position>(platform).unwrap().0.x;
+    let rider_x = particle(&app, rider).position.x;
+    assert!((platform_x - 6.0).abs() < 0.02, "platform at {platform_x}");
+    assert!(
+        (rider_x - platform_x).abs() < 1e-3,
+        "rider at {rider_x}, platform at {platform_x}"
+    );
+}
