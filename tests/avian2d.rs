@@ -85,7 +85,14 @@ fn rest_on(collider: Collider, at: Vec2, turn: f32, drop_from: Vec2) -> (f32, f3
         penetration = penetration.max(0.05 - clearance(&app, x, wall));
         moved = moved.max((x - start).length());
     }
-    println!("penetration {penetration:.2e} m, moved {moved:.2e} m over the last second");
+    let gap = clearance(&app, particle(&app, p).position, wall) - 0.05;
+    println!(
+        "penetration {penetration:.2e} m, moved {moved:.2e} m over the last second, gap {gap:.2e} m"
+    );
+    assert!(
+        gap.abs() < 1e-3,
+        "the particle does not rest on the surface: gap {gap} m"
+    );
     (penetration, moved)
 }
 

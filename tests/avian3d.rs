@@ -1,0 +1,249 @@
+//! The avian3d integration, headless (`cargo test --features avian3d`): a particle resting on a
+//! turned box and on a capsule, a rope pendulum with an avian bob against the rigid period, a
+//! crate on a rope turning about its attachment, and momentum in a particle–body collision.
+
+use avian3d::prelude::*;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_verlet_physics::avian3d::{BodyAttachment, VerletAvianPlugin};
+use bevy_verlet_physics::prelude::*;
+
+/// Bevy's default fixed timestep (64 Hz).
+const DT: f32 = 1.0 / 64.0;
+
+fn app(gravity: Vec3) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        PhysicsPlugins::default(),
+        VerletPlugin::default(),
+        VerletAvianPlugin,
+    ))
+    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
+    .insert_resource(avian3d::prelude::Gravity(gravity))
+    .insert_resource(bevy_verlet_physics::Gravity(gravity));
+    app.finish();
+    app.cleanup();
+    app.update();
+    app
+}
+
+fn step(app: &mut App, n: usize) {
+    for _ in 0..n {
+        app.update();
+    }
+}
+
+fn position(app: &App, entity: Entity) -> Vec3 {
+    app.world().get::<Particle>(entity).unwrap().position
+}
+
+fn body(app: &App, entity: Entity) -> Vec3 {
+    app.world().get::<Position>(entity).unwrap().0
+}
+
+/// Drops a 5 cm particle on `collider` (turned by `turn`) and returns (penetration, movement
+/// over the last second, final gap to the surface minus the radius) after 3 s.
+fn rest_on(collider: Collider, turn: Quat, drop_from: Vec3) -> (f32, f32, f32) {
+    let mut app = app(Vec3::new(0.0, -9.81, 0.0));
+    let shape = collider.clone();
+    spawn_static(&mut app, collider, turn);
+    let p = app
+        .world_mut()
+        .spawn(Particle::new(drop_from).with_radius(0.05))
+        .id();
+    let clearance = |x: Vec3| {
+        let d = shape.distance_to_point(Vec3::ZERO, turn, x, false);
+        if shape.contains_point(Vec3::ZERO, turn, x) {
+            -d
+        } else {
+            d
+        }
+    };
+    step(&mut app, 128);
+    let start = position(&app, p);
+    let (mut penetration, mut moved) = (0.0f32, 0.0f32);
+    for _ in 0..64 {
+        step(&mut app, 1);
+        let x = position(&app, p);
+        penetration = penetration.max(0.05 - clearance(x));
+        moved = moved.max((x - start).length());
+    }
+    let gap = clearance(position(&app, p)) - 0.05;
+    println!("penetration {penetration:.2e} m, moved {moved:.2e} m, gap {gap:.2e} m");
+    (penetration, moved, gap)
+}
+
+fn spawn_static(app: &mut App, collider: Collider, turn: Quat) {
+    app.world_mut().spawn((
+        RigidBody::Static,
+        collider,
+        Friction::new(1.0),
+        Transform::from_rotation(turn),
+    ));
+}
+
+#[test]
+fn a_particle_rests_on_a_turned_box() {
+    let turn = Quat::from_rotation_z(0.3) * Quat::from_rotation_x(0.2);
+    let (penetration, moved, gap) = rest_on(Collider::cuboid(2.0, 0.5, 2.0), turn, Vec3::Y);
+    assert!(
+        penetration < 1e-3 && gap.abs() < 1e-3,
+        "penetration {penetration}, gap {gap}"
+    );
+    assert!(moved < 1e-3, "jitter or creep {moved} m");
+}
+
+#[test]
+fn a_particle_rests_on_a_capsule() {
+    let turn = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+    let (penetration, moved, gap) =
+        rest_on(Collider::capsule(0.3, 2.0), turn, Vec3::new(0.3, 1.0, 0.0));
+    assert!(
+        penetration < 1e-3 && gap.abs() < 1e-3,
+        "penetration {penetration}, gap {gap}"
+    );
+    assert!(moved < 1e-3, "jitter or creep {moved} m");
+}
+
+#[test]
+fn a_rope_pendulum_with_an_avian_bob_keeps_its_period_and_swing() {
+    // A 1 m, 10-link rope of light particles from a pin, a 1 kg ball at its end, released at
+    // 20° in the YZ plane; the reference is the rigid pendulum with the same masses.
+    let mut app = app(Vec3::new(0.0, -9.81, 0.0));
+    let amplitude = 20f32.to_radians();
+    let end = Vec3::new(0.0, -amplitude.cos(), amplitude.sin());
+    let bob = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::sphere(0.05),
+            Mass(1.0),
+            Transform::from_translation(end),
+        ))
+        .id();
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::ZERO, end, 10)
+            .mass(0.01)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    let last = *rope.particles.last().unwrap();
+    app.world_mut()
+        .entity_mut(last)
+        .insert(BodyAttachment::new(bob, Vec3::ZERO));
+    let radii = (1..=10).map(|i| i as f64 / 10.0);
+    let inertia = radii.clone().map(|r| 0.01 * r * r).sum::<f64>() + 1.0;
+    let moment = radii.map(|r| 0.01 * r).sum::<f64>() + 1.0;
+    let k = (f64::from(amplitude) / 2.0).sin();
+    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
+    for _ in 0..20 {
+        (a, b) = ((a + b) / 2.0, (a * b).sqrt());
+    }
+    let expected = 4.0 * (inertia / (moment * 9.81)).sqrt() * std::f64::consts::PI / (2.0 * a);
+    let (mut crossings, mut last_z, mut swing, mut last_swing) =
+        (Vec::new(), body(&app, bob).z, 0.0f32, 0.0f32);
+    for n in 1..=(64.0 * 3.5 * expected) as usize {
+        step(&mut app, 1);
+        let z = body(&app, bob).z;
+        swing = swing.max(z);
+        if last_z < 0.0 && z >= 0.0 {
+            crossings.push(f64::from((n as f32 - 1.0 + -last_z / (z - last_z)) * DT));
+            (last_swing, swing) = (swing, 0.0);
+        }
+        last_z = z;
+    }
+    let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+    let error = (measured / expected - 1.0).abs();
+    println!(
+        "period {measured:.5} s, rigid {expected:.5} s, error {:.3} %, swing {last_swing}",
+        error * 100.0
+    );
+    assert!(error < 1e-3, "period {measured} s vs {expected} s");
+    assert!(last_swing > 0.98 * amplitude.sin(), "swing {last_swing}");
+}
+
+#[test]
+fn a_crate_hung_off_centre_turns_to_hang_below_its_attachment() {
+    // A crate attached at a top corner hangs with its centre of mass straight below the rope.
+    let mut app = app(Vec3::new(0.0, -9.81, 0.0));
+    let corner = Vec3::new(0.15, 0.15, 0.15);
+    let crate_body = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::cuboid(0.3, 0.3, 0.3),
+            Mass(5.0),
+            Transform::from_xyz(0.0, -1.0, 0.0),
+        ))
+        .id();
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0) + corner, 8)
+            .mass(0.02)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    let end = *rope.particles.last().unwrap();
+    app.world_mut()
+        .entity_mut(end)
+        .insert(BodyAttachment::new(crate_body, corner));
+    // Damped by the crate's own avian damping so that it settles.
+    app.world_mut()
+        .entity_mut(crate_body)
+        .insert((AngularDamping(2.0), LinearDamping(1.0)));
+    step(&mut app, 64 * 8);
+    let centre = body(&app, crate_body);
+    let attachment = position(&app, end);
+    let sideways = (centre - attachment).with_y(0.0).length();
+    println!("centre {centre}, attachment {attachment}, sideways {sideways}");
+    assert!(
+        centre.y < attachment.y - 0.2,
+        "the crate hangs below its attachment"
+    );
+    assert!(
+        sideways < 0.02,
+        "the centre of mass is {sideways} m off the vertical"
+    );
+}
+
+#[test]
+fn momentum_is_kept_when_a_particle_hits_a_body() {
+    let mut app = app(Vec3::ZERO);
+    let ball = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::sphere(0.2),
+            Mass(1.0),
+            Restitution::new(0.5),
+            Transform::from_xyz(0.0, 0.05, 0.03),
+        ))
+        .id();
+    let p = app
+        .world_mut()
+        .spawn(
+            Particle::new(Vec3::new(-1.0, 0.0, 0.0))
+                .with_mass(0.5)
+                .with_radius(0.02)
+                .with_velocity(Vec3::new(5.0, 0.0, 0.0), DT),
+        )
+        .id();
+    step(&mut app, 64);
+    let particle = app.world().get::<Particle>(p).unwrap().velocity(DT);
+    let ball_velocity = app.world().get::<LinearVelocity>(ball).unwrap().0;
+    let after = particle * 0.5 + ball_velocity;
+    let before = Vec3::new(2.5, 0.0, 0.0);
+    println!("momentum {before} → {after}");
+    assert!(ball_velocity.x > 1.0, "the ball was pushed");
+    assert!(
+        (after - before).length() / before.length() < 0.01,
+        "momentum {before} → {after}"
+    );
+}
