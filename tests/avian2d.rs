@@ -263,6 +263,7 @@ fn a_fast_particle_does_not_pass_through_a_thin_wall() {
     );
     step(&mut app, 64);
     let x = particle(&app, p).position.x;
+    println!("after 1 s at 50 m/s the particle is at x = {x} (wall face at -0.005)");
     assert!(x < -0.005 - 0.005 + 1e-4, "the particle is at x = {x}");
 }
 
@@ -344,7 +345,10 @@ fn a_heavy_rope_drags_a_light_body_and_a_kinematic_body_carries_its_particle() {
         ),
     );
     let (mut widest, mut lowest, mut leftmost) = (0.0f32, 0.0f32, 0.0f32);
-    for _ in 0..64 {
+    // The first tick after spawning is left out: the attachment opens by 9 mm there (the body's
+    // first avian step; see the README's limitations).
+    step(&mut app, 1);
+    for _ in 1..64 {
         step(&mut app, 1);
         let world = app.world();
         let (position, rotation) = (
@@ -364,7 +368,8 @@ fn a_heavy_rope_drags_a_light_body_and_a_kinematic_body_carries_its_particle() {
         leftmost < -0.9,
         "and up the other side: leftmost x = {leftmost}"
     );
-    assert!(widest < 0.01, "the attachment opened by {widest} m");
+    println!("attachment opened by at most {widest:.2e} m; lowest {lowest}, leftmost {leftmost}");
+    assert!(widest < 1e-4, "the attachment opened by {widest} m");
     let platform_x = app.world().get::<Position>(platform).unwrap().0.x;
     let rider_x = particle(&app, rider).position.x;
     assert!((platform_x - 6.0).abs() < 0.02, "platform at {platform_x}");

@@ -248,6 +248,11 @@ fn gather(
     coupled.body_entities.clear();
     coupled.body_centres.clear();
     coupled.body_index.clear();
+    if colliders.is_empty() && attachments.is_empty() {
+        coupled.external.particle_layers.clear();
+        coupled.external.begin_step(&state.solver);
+        return; // nothing to couple: no pass runs in the substeps either
+    }
     let step = time.delta_secs_f64();
     let g = to_d(gravity.0);
     let add_body = |coupled: &mut Coupled, entity: Entity| -> Option<u32> {
@@ -471,6 +476,9 @@ fn wake_touched(state: &mut VerletState, coupled: &Coupled) {
     }
 }
 
+/// A body's pose, written to place it for avian's step.
+type BodyPose = (&'static mut Position, &'static mut Rotation);
+
 /// Hands every dynamic body the impulse the particles gave it during the step, and places it
 /// so that avian's step, which moves it by its new velocity, ends where the particle step's
 /// proxy ended (their paths within the tick differ by `Δv·Δt/2` otherwise: a light body
@@ -480,7 +488,7 @@ fn apply_impulses(
     mut stats: ResMut<AvianCouplingStats>,
     time: Res<Time>,
     avian_substeps: Option<Res<SubstepCount>>,
-    mut bodies: ParamSet<(Query<Forces>, Query<(&mut Position, &mut Rotation)>)>,
+    mut bodies: ParamSet<(Query<Forces>, Query<BodyPose>)>,
 ) {
     let coupled = &mut *coupled;
     *stats = AvianCouplingStats {
