@@ -16,6 +16,9 @@
 //! `MinimalPlugins` alone, the same with `VerletPlugin` and no particles (the idle plugin's
 //! cost), and the scene (whose update minus the bare app's should be close to gather + solve +
 //! scatter).
+//! `avian` (needs `--features avian2d`) times a cloth draped over an avian ball with the
+//! coupling against the same cloth over the crate's own sphere collider, both with avian
+//! running, and prints the coupling's extra cost per step.
 //! `--threads N` runs the solver on N threads (`1`: serial; default: every core). `sleeping` lets
 //! `--count` ragdolls fall asleep, drops one more among them and compares its cost with that
 //! ragdoll dropped alone.
@@ -270,6 +273,13 @@ fn main() {
         tearing(&options);
         return;
     }
+    if options.scene == "avian" {
+        #[cfg(feature = "avian2d")]
+        avian::compare(&options);
+        #[cfg(not(feature = "avian2d"))]
+        eprintln!("the avian scene needs --features avian2d");
+        return;
+    }
     let mut app = new_app(&options);
     match options.scene.as_str() {
         "cloth" => {
@@ -364,4 +374,74 @@ fn main() {
         t.update - bevy,
         ((t.update - bevy) / plugin - 1.0) * 100.0,
     );
+}
+
+/// The `avian` scene: the coupling's cost against the crate's own collider.
+#[cfg(feature = "avian2d")]
+mod avian {
+    use super::{Options, new_app, spawn, time_steps};
+    use avian2d::prelude::*;
+    use bevy::prelude::*;
+    use bevy_verlet_physics::avian2d::{AvianCouplingStats, VerletAvianPlugin};
+    use bevy_verlet_physics::prelude::*;
+
+    /// The cloth (top row pinned, 0.1 m cells) above a 1 m ball, with avian running; the ball is
+    /// an avian collider (`coupled`) or a `VerletCollider` sphere.
+    fn app(options: &Options, coupled: bool) -> App {
+        let mut app = new_app(options);
+        app.add_plugins((TransformPlugin, PhysicsPlugins::default()));
+        if coupled {
+            app.add_plugins(VerletAvianPlugin);
+        }
+        app.finish();
+        app.cleanup();
+        let width = options.cols as f32 * 0.1;
+        let centre = Vec3::new(width / 2.0, -1.5, 0.0);
+        spawn(&mut app, |c| {
+            if coupled {
+                c.spawn((
+                    RigidBody::Static,
+                    Collider::circle(1.0),
+                    Transform::from_translation(centre),
+                ));
+            } else {
+                c.spawn((
+                    VerletCollider::sphere(1.0),
+                    Transform::from_translation(centre),
+                ));
+            }
+            ClothBuilder::new(Vec3::ZERO, options.cols, options.rows, 0.1)
+                .pin_top_row(1)
+                .spawn(c)
+        });
+        app.update();
+        app.update();
+        app
+    }
+
+    /// Prints µs per update of both apps (fastest of three interleaved rounds).
+    pub fn compare(options: &Options) {
+        let mut own = app(options, false);
+        let mut coupled = app(options, true);
+        let mut best = [f64::INFINITY; 2];
+        for _ in 0..3 {
+            best[0] = best[0].min(time_steps(&mut own, options.steps));
+            best[1] = best[1].min(time_steps(&mut coupled, options.steps));
+        }
+        let stats = *coupled.world().resource::<AvianCouplingStats>();
+        let particles = coupled
+            .world()
+            .resource::<VerletState>()
+            .solver
+            .particles
+            .len();
+        println!(
+            "{particles} particles, avian running in both: own sphere collider {:.1} µs/update; avian ball coupled {:.1} µs/update (+{:.1} µs, {} contacts in the last step, {} colliders gathered)",
+            best[0],
+            best[1],
+            best[1] - best[0],
+            stats.contacts,
+            stats.colliders,
+        );
+    }
 }
