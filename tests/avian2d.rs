@@ -376,3 +376,58 @@ fn a_heavy_rope_drags_a_light_body_and_a_kinematic_body_carries_its_particle() {
         "rider at {rider_x}, platform at {platform_x}"
     );
 }
+
+#[test]
+fn a_particle_asks_for_its_own_bounce() {
+    // A floor with restitution 0. A bare particle lands dead; one with its own `Restitution`
+    // of 1 (averaged with the floor's 0: 0.5) bounces to about a quarter of its drop, and so
+    // does a rope whose `Composite` root carries it.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    spawn(
+        &mut app,
+        (
+            RigidBody::Static,
+            Collider::rectangle(10.0, 0.2),
+            Restitution::new(0.0),
+            Transform::from_xyz(0.0, -0.1, 0.0),
+        ),
+    );
+    let drop = |x: f32| Particle::new(Vec3::new(x, 1.05, 0.0)).with_radius(0.05);
+    let dead = spawn(&mut app, drop(-2.0));
+    let bouncy = spawn(&mut app, (drop(0.0), Restitution::new(1.0)));
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::new(2.0, 1.05, 0.0), Vec3::new(2.3, 1.05, 0.0), 1)
+            .radius(0.05)
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    app.world_mut()
+        .entity_mut(rope.root)
+        .insert(Restitution::new(1.0));
+    // Falls 1 m in 0.45 s; watch the highest point after the first landing.
+    let mut peaks = [0.0f32; 3];
+    let mut landed = [false; 3];
+    for _ in 0..96 {
+        step(&mut app, 1);
+        for (k, e) in [dead, bouncy, rope.particles[0]].into_iter().enumerate() {
+            let y = particle(&app, e).position.y - 0.05;
+            landed[k] |= y < 0.01;
+            if landed[k] {
+                peaks[k] = peaks[k].max(y);
+            }
+        }
+    }
+    println!(
+        "bounce heights after a 1 m drop: bare {:.3}, own 1.0 {:.3}, composite 1.0 {:.3}",
+        peaks[0], peaks[1], peaks[2]
+    );
+    assert!(peaks[0] < 0.01, "the bare particle bounced to {}", peaks[0]);
+    for peak in &peaks[1..] {
+        assert!(
+            (0.15..0.35).contains(peak),
+            "bounce to {peak} m, expected about 0.25 m"
+        );
+    }
+}

@@ -238,7 +238,8 @@ fn gather(
     bodies: Query<BodyData>,
     colliders: Query<ColliderData, Without<Sensor>>,
     attachments: Query<(Entity, &BodyAttachment), With<Particle>>,
-    layered: Query<(Entity, &CollisionLayers, Option<&Composite>)>,
+    layered: Query<(Entity, &CollisionLayers, Option<&Composite>), Without<Collider>>,
+    materials: Query<MaterialData, OwnMaterial>,
 ) {
     let coupled = &mut *coupled;
     let state = &mut *state;
@@ -250,6 +251,7 @@ fn gather(
     coupled.body_index.clear();
     if colliders.is_empty() && attachments.is_empty() {
         coupled.external.particle_layers.clear();
+        coupled.external.particle_materials.clear();
         coupled.external.begin_step(&state.solver);
         return; // nothing to couple: no pass runs in the substeps either
     }
@@ -334,7 +336,11 @@ fn gather(
             layers: layers.map_or_else(Layers::default, |l| to_layers(*l)),
         });
     }
-    particle_layers(state, &layered, &mut coupled.external.particle_layers);
+    let layers = || layered.iter().map(|(e, l, c)| (e, to_layers(*l), c));
+    per_slot(state, layers, Layers::default(), &mut coupled.external.particle_layers);
+    let defaults = (f64::from(coupling.restitution), f64::from(coupling.friction));
+    let materials = || materials.iter().map(|item| own_material(defaults, item));
+    per_slot(state, materials, None, &mut coupled.external.particle_materials);
     wake_touched(state, coupled);
     coupled.external.begin_step(&state.solver);
 }
@@ -421,35 +427,63 @@ fn to_layers(layers: CollisionLayers) -> Layers {
     }
 }
 
-/// Per-slot layers from `CollisionLayers` on particles or on their [`Composite`]; left empty
-/// (everyone on the default layers) when nothing has layers.
-fn particle_layers(
-    state: &VerletState,
-    layered: &Query<(Entity, &CollisionLayers, Option<&Composite>)>,
-    out: &mut Vec<Layers>,
-) {
+/// Fills `out` per particle slot from values on particles or on their [`Composite`] root (a
+/// particle's own wins); leaves it empty (nobody has one) when `values` yields nothing.
+fn per_slot<'a, T: Copy, I>(state: &VerletState, values: impl Fn() -> I, default: T, out: &mut Vec<T>)
+where
+    I: Iterator<Item = (Entity, T, Option<&'a Composite>)>,
+{
     out.clear();
-    if layered.is_empty() {
+    if values().next().is_none() {
         return;
     }
-    out.resize(state.solver.particles.len(), Layers::default());
-    let mut set = |entity: Entity, layers: &CollisionLayers| {
+    out.resize(state.solver.particles.len(), default);
+    let mut set = |entity: Entity, value: T| {
         if let Some(slot) = state.slot(entity) {
-            out[slot as usize] = to_layers(*layers);
+            out[slot as usize] = value;
         }
     };
-    // Composites first, so that a particle's own layers win.
-    for (_, layers, composite) in layered.iter() {
+    for (_, value, composite) in values() {
         for &particle in composite.map_or(&[][..], |c| &c.particles[..]) {
-            set(particle, layers);
+            set(particle, value);
         }
     }
-    for (entity, layers, composite) in layered.iter() {
+    for (entity, value, composite) in values() {
         if composite.is_none() {
-            set(entity, layers);
+            set(entity, value);
         }
     }
 }
+
+/// A particle's or composite's own `(restitution, friction)`; the one it does not set comes
+/// from `defaults`.
+fn own_material<'a>(
+    defaults: (f64, f64),
+    (entity, friction, restitution, composite): (
+        Entity,
+        Option<&Friction>,
+        Option<&Restitution>,
+        Option<&'a Composite>,
+    ),
+) -> (Entity, Option<(f64, f64)>, Option<&'a Composite>) {
+    let restitution = restitution.map_or(defaults.0, |r| f64::from(r.coefficient));
+    let friction = friction.map_or(defaults.1, |f| f64::from(f.dynamic_coefficient));
+    (entity, Some((restitution, friction)), composite)
+}
+
+/// A particle's or composite's own material components.
+type MaterialData = (
+    Entity,
+    Option<&'static Friction>,
+    Option<&'static Restitution>,
+    Option<&'static Composite>,
+);
+
+/// Particles and composites with their own avian `Friction` or `Restitution`.
+type OwnMaterial = (
+    Or<(With<Particle>, With<Composite>)>,
+    Or<(With<Friction>, With<Restitution>)>,
+);
 
 /// Wakes sleeping islands that a moving body's collider reaches, and islands with a particle
 /// attached to a moving body.

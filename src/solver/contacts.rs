@@ -127,6 +127,9 @@ pub struct ContactParticle {
     pub attached_to: Option<u32>,
     /// `|g|·h²` of its substep (for the resting speed).
     pub gravity_step: f64,
+    /// The particle's own `(restitution, friction)`, if it asks for one: averaged with the
+    /// collider's (avian's default combine rule).
+    pub material: Option<(f64, f64)>,
 }
 
 /// Resolves the contacts of one particle against `colliders` (whose world poses and bounds for
@@ -160,10 +163,15 @@ pub fn collide_particle<S: ContactShape>(
             continue;
         };
         touched = true;
+        let own = (collider.restitution, collider.friction);
+        let material = particle
+            .material
+            .map_or(own, |(r, f)| ((r + own.0) / 2.0, (f + own.1) / 2.0));
         let contact = Contact {
             normal,
             depth,
             collider,
+            material,
             gravity_step: particle.gravity_step,
         };
         resolve(
@@ -220,6 +228,8 @@ struct Contact<'a, S> {
     normal: DVec3,
     depth: f64,
     collider: &'a ExternalCollider<S>,
+    /// `(restitution, friction)` of the pair.
+    material: (f64, f64),
     gravity_step: f64,
 }
 
@@ -234,6 +244,7 @@ fn resolve<S>(
         normal,
         depth,
         collider,
+        material,
         gravity_step,
     } = contact;
     let body = &mut bodies[collider.body as usize];
@@ -246,12 +257,7 @@ fn resolve<S>(
     let surface_motion = surface_motion(body, arm);
     let velocity = *position - *previous;
     let relative = velocity - surface_motion;
-    let responded = super::colliders::respond(
-        relative,
-        normal,
-        (collider.restitution, collider.friction),
-        2.0 * gravity_step,
-    );
+    let responded = super::colliders::respond(relative, normal, material, 2.0 * gravity_step);
     let change = responded - relative;
     *position += normal * (w_particle * lambda);
     body.correct(arm, -normal * lambda);
@@ -327,6 +333,7 @@ mod tests {
             layers: Layers::default(),
             attached_to: None,
             gravity_step: 0.0,
+            material: None,
         };
         let state = (&mut x, &mut previous, 0.5, 0.1);
         assert!(collide_particle(

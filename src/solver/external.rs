@@ -73,6 +73,9 @@ pub struct External<S> {
     pub attachments: Vec<Attachment>,
     /// Collision layers per particle slot; empty means [`Layers::default`] for all.
     pub particle_layers: Vec<Layers>,
+    /// `(restitution, friction)` per particle slot for particles that ask for their own
+    /// (averaged with the collider's); empty means none does.
+    pub particle_materials: Vec<Option<(f64, f64)>>,
     /// Contacts resolved in the last step.
     pub contacts: usize,
     attached_to: Vec<u32>,
@@ -90,6 +93,7 @@ impl<S> Default for External<S> {
             colliders: Vec::new(),
             attachments: Vec::new(),
             particle_layers: Vec::new(),
+            particle_materials: Vec::new(),
             contacts: 0,
             attached_to: Vec::new(),
             scratch: AttachmentScratch::default(),
@@ -209,6 +213,7 @@ impl<S: ContactShape> External<S> {
                     .copied()
                     .filter(|&b| b != NOT_ATTACHED),
                 gravity_step,
+                material: self.particle_materials.get(slot).copied().flatten(),
             };
             let (position, previous) =
                 (&mut particles.position[slot], &mut particles.previous[slot]);
