@@ -65,11 +65,11 @@
 //! ```
 
 mod angles;
-mod attachments;
-mod bodies;
+pub mod attachments;
+pub mod bodies;
 mod colliders;
 pub mod colouring;
-mod contacts;
+pub mod contacts;
 pub mod direct;
 pub mod external;
 mod integrate;
