@@ -226,7 +226,7 @@ type ColliderData = (
 );
 
 /// Fills the coupled world for this step: bodies with attachments, colliders whose bounds touch
-/// an island's bounds (with their bodies), particle layers.
+/// an island's bounds (with their bodies), particle layers and materials.
 #[allow(clippy::too_many_arguments)]
 fn gather(
     mut coupled: ResMut<Coupled>,
@@ -241,108 +241,136 @@ fn gather(
     layered: Query<(Entity, &CollisionLayers, Option<&Composite>), Without<Collider>>,
     materials: Query<MaterialData, OwnMaterial>,
 ) {
-    let coupled = &mut *coupled;
-    let state = &mut *state;
-    coupled.external.bodies.clear();
-    coupled.external.colliders.clear();
-    coupled.external.attachments.clear();
-    coupled.body_entities.clear();
-    coupled.body_centres.clear();
-    coupled.body_index.clear();
-    if colliders.is_empty() && attachments.is_empty() {
-        coupled.external.particle_layers.clear();
-        coupled.external.particle_materials.clear();
-        coupled.external.begin_step(&state.solver);
-        return; // nothing to couple: no pass runs in the substeps either
+    let (coupled, state) = (&mut *coupled, &mut *state);
+    coupled.clear();
+    if !colliders.is_empty() || !attachments.is_empty() {
+        let world = World3 {
+            bodies: &bodies,
+            gravity: to_d(gravity.0),
+        };
+        gather_attachments(coupled, state, &world, &attachments);
+        island_bounds(state, f64::from(config.substeps), &mut coupled.island_bounds);
+        let step = time.delta_secs_f64();
+        gather_colliders(coupled, &world, &colliders, &coupling, step);
+        let layers = || layered.iter().map(|(e, l, c)| (e, to_layers(*l), c));
+        per_slot(state, layers, Layers::default(), &mut coupled.external.particle_layers);
+        let defaults = (f64::from(coupling.restitution), f64::from(coupling.friction));
+        let materials = || materials.iter().map(|item| own_material(defaults, item));
+        per_slot(state, materials, None, &mut coupled.external.particle_materials);
+        wake_touched(state, coupled);
     }
-    let step = time.delta_secs_f64();
-    let g = to_d(gravity.0);
-    let add_body = |coupled: &mut Coupled, entity: Entity| -> Option<u32> {
-        if let Some(&index) = coupled.body_index.get(&entity) {
+    // With nothing to couple the lists stay empty and no pass runs in the substeps.
+    coupled.external.begin_step(&state.solver);
+}
+
+/// The avian bodies and gravity, as `gather` reads them.
+struct World3<'a, 'w, 's> {
+    bodies: &'a Query<'w, 's, BodyData>,
+    gravity: DVec3,
+}
+
+impl Coupled {
+    /// Empties the lists (keeping their capacity).
+    fn clear(&mut self) {
+        self.external.bodies.clear();
+        self.external.colliders.clear();
+        self.external.attachments.clear();
+        self.external.particle_layers.clear();
+        self.external.particle_materials.clear();
+        self.body_entities.clear();
+        self.body_centres.clear();
+        self.body_index.clear();
+    }
+
+    /// The index of `entity`'s proxy, adding it if it is an avian rigid body.
+    fn add_body(&mut self, world: &World3, entity: Entity) -> Option<u32> {
+        if let Some(&index) = self.body_index.get(&entity) {
             return Some(index);
         }
-        let data = bodies.get(entity).ok()?;
-        let index = coupled.external.bodies.len() as u32;
-        coupled.external.bodies.push(proxy(data, g));
-        coupled.body_entities.push(entity);
-        coupled.body_centres.push(to_d(data.7.0));
-        coupled.body_index.insert(entity, index);
+        let data = world.bodies.get(entity).ok()?;
+        let index = self.external.bodies.len() as u32;
+        self.external.bodies.push(proxy(data, world.gravity));
+        self.body_entities.push(entity);
+        self.body_centres.push(to_d(data.7.0));
+        self.body_index.insert(entity, index);
         Some(index)
-    };
-    for (particle, attachment) in &attachments {
+    }
+
+    /// A proxy for a collider without a body: static where it is.
+    fn add_static(&mut self, pose: Pose) -> u32 {
+        let index = self.external.bodies.len() as u32;
+        let body = Body::kinematic(pose.translation, pose.rotation, DVec3::ZERO, DVec3::ZERO);
+        self.external.bodies.push(body);
+        self.body_entities.push(Entity::PLACEHOLDER);
+        self.body_centres.push(DVec3::ZERO);
+        index
+    }
+}
+
+/// Every [`BodyAttachment`] of a simulated, movable particle to an avian rigid body.
+fn gather_attachments(
+    coupled: &mut Coupled,
+    state: &mut VerletState,
+    world: &World3,
+    attachments: &Query<(Entity, &BodyAttachment), With<Particle>>,
+) {
+    use crate::state::Problem;
+    for (particle, attachment) in attachments {
         let Some(slot) = state.slot(particle) else {
             continue;
         };
         if state.solver.particles.inverse_mass[slot as usize] <= 0.0 {
-            state.warn(particle, crate::state::Problem::Attachment, || {
+            state.warn(particle, Problem::Attachment, || {
                 "BodyAttachment on a pinned or massless particle is ignored".to_string()
             });
             continue;
         }
-        let Some(index) = add_body(coupled, attachment.body) else {
-            state.warn(particle, crate::state::Problem::Attachment, || {
-                format!("BodyAttachment to {:?}: not an avian rigid body", attachment.body)
+        let Some(index) = coupled.add_body(world, attachment.body) else {
+            state.warn(particle, Problem::Attachment, || {
+                format!("BodyAttachment to {}: not an avian rigid body", attachment.body)
             });
             continue;
         };
-        let Ok((_, _, _, _, _, _, _, centre, _)) = bodies.get(attachment.body) else {
-            continue;
-        };
-        let anchor = to_d(attachment.anchor) - to_d(centre.0);
-        coupled
-            .external
-            .attachments
-            .push(Attachment::new(slot, index, anchor));
+        let centre = coupled.body_centres[index as usize];
+        let anchor = to_d(attachment.anchor) - centre;
+        let attachment = Attachment::new(slot, index, anchor);
+        coupled.external.attachments.push(attachment);
     }
-    island_bounds(state, f64::from(config.substeps), &mut coupled.island_bounds);
-    for (_, collider, position, rotation, aabb, of, layers, friction, restitution) in
-        &colliders
-    {
-        let body = of.and_then(|of| bodies.get(of.body).ok()).map(|data| proxy(data, g));
-        let (lo, hi) = swept_bounds(aabb, body.as_ref(), step);
-        let near = coupled.island_bounds.iter().any(|&(a, b)| {
-            lo.cmple(b).all() && hi.cmpge(a).all()
-        });
-        if !near {
+}
+
+/// Every collider whose bounds, grown by its body's motion over the step, touch an island.
+fn gather_colliders(
+    coupled: &mut Coupled,
+    world: &World3,
+    colliders: &Query<ColliderData, Without<Sensor>>,
+    coupling: &AvianCoupling,
+    step: f64,
+) {
+    for (_, collider, position, rotation, aabb, of, layers, friction, restitution) in colliders {
+        let body = of.and_then(|of| world.bodies.get(of.body).ok());
+        let moving = body.map(|data| proxy(data, world.gravity));
+        let (lo, hi) = swept_bounds(aabb, moving.as_ref(), step);
+        let near = |&(a, b): &(DVec3, DVec3)| lo.cmple(b).all() && hi.cmpge(a).all();
+        if !coupled.island_bounds.iter().any(near) {
             continue;
         }
-        let world = Pose {
+        let pose = Pose {
             translation: to_d(position.0),
             rotation: rotation_d(rotation),
         };
-        let index = match of.and_then(|of| add_body(coupled, of.body)) {
-            Some(index) => index,
-            None => {
-                // A collider without a body (or not yet attached) is static where it is.
-                let index = coupled.external.bodies.len() as u32;
-                coupled.external.bodies.push(Body::kinematic(
-                    world.translation,
-                    world.rotation,
-                    DVec3::ZERO,
-                    DVec3::ZERO,
-                ));
-                coupled.body_entities.push(Entity::PLACEHOLDER);
-                coupled.body_centres.push(DVec3::ZERO);
-                index
-            }
-        };
+        let index = of
+            .and_then(|of| coupled.add_body(world, of.body))
+            .unwrap_or_else(|| coupled.add_static(pose));
         let body_pose = coupled.external.bodies[index as usize].pose();
         coupled.external.colliders.push(ExternalCollider {
             shape: AvianShape(collider.clone()),
             body: index,
-            local: body_pose.relative(world),
+            local: body_pose.relative(pose),
             restitution: f64::from(restitution.map_or(coupling.restitution, |r| r.coefficient)),
             friction: f64::from(friction.map_or(coupling.friction, |f| f.dynamic_coefficient)),
             layers: layers.map_or_else(Layers::default, |l| to_layers(*l)),
         });
     }
-    let layers = || layered.iter().map(|(e, l, c)| (e, to_layers(*l), c));
-    per_slot(state, layers, Layers::default(), &mut coupled.external.particle_layers);
-    let defaults = (f64::from(coupling.restitution), f64::from(coupling.friction));
-    let materials = || materials.iter().map(|item| own_material(defaults, item));
-    per_slot(state, materials, None, &mut coupled.external.particle_materials);
-    wake_touched(state, coupled);
-    coupled.external.begin_step(&state.solver);
 }
 
 /// A body's proxy: centre-of-mass frame, velocities, mass and world inverse inertia.
