@@ -244,7 +244,7 @@ fn gather(
     let (coupled, state) = (&mut *coupled, &mut *state);
     coupled.clear();
     if !colliders.is_empty() || !attachments.is_empty() {
-        let world = World3 {
+        let world = AvianBodies {
             bodies: &bodies,
             gravity: to_d(gravity.0),
         };
@@ -264,7 +264,7 @@ fn gather(
 }
 
 /// The avian bodies and gravity, as `gather` reads them.
-struct World3<'a, 'w, 's> {
+struct AvianBodies<'a, 'w, 's> {
     bodies: &'a Query<'w, 's, BodyData>,
     gravity: DVec3,
 }
@@ -283,7 +283,7 @@ impl Coupled {
     }
 
     /// The index of `entity`'s proxy, adding it if it is an avian rigid body.
-    fn add_body(&mut self, world: &World3, entity: Entity) -> Option<u32> {
+    fn add_body(&mut self, world: &AvianBodies, entity: Entity) -> Option<u32> {
         if let Some(&index) = self.body_index.get(&entity) {
             return Some(index);
         }
@@ -311,7 +311,7 @@ impl Coupled {
 fn gather_attachments(
     coupled: &mut Coupled,
     state: &mut VerletState,
-    world: &World3,
+    world: &AvianBodies,
     attachments: &Query<(Entity, &BodyAttachment), With<Particle>>,
 ) {
     use crate::state::Problem;
@@ -341,7 +341,7 @@ fn gather_attachments(
 /// Every collider whose bounds, grown by its body's motion over the step, touch an island.
 fn gather_colliders(
     coupled: &mut Coupled,
-    world: &World3,
+    world: &AvianBodies,
     colliders: &Query<ColliderData, Without<Sensor>>,
     coupling: &AvianCoupling,
     step: f64,

@@ -119,8 +119,6 @@ impl<S> ExternalCollider<S> {
 /// One particle as the contact pass sees it.
 #[derive(Clone, Copy, Debug)]
 pub struct ContactParticle {
-    /// Slot.
-    pub slot: usize,
     /// Collision layers.
     pub layers: Layers,
     /// The body it is attached to, if any (never collides with it).
@@ -329,7 +327,6 @@ mod tests {
         let placed = [(pose, DVec3::splat(-1.0), DVec3::splat(1.0))];
         let mut impulses = Vec::new();
         let particle = ContactParticle {
-            slot: 0,
             layers: Layers::default(),
             attached_to: None,
             gravity_step: 0.0,

@@ -205,7 +205,6 @@ impl<S: ContactShape> External<S> {
         let start = self.impulses.len();
         for slot in range {
             let particle = ContactParticle {
-                slot,
                 layers: self.particle_layers.get(slot).copied().unwrap_or_default(),
                 attached_to: self
                     .attached_to
