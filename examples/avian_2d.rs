@@ -6,18 +6,17 @@
 //!
 //! The recipe: add avian's `PhysicsPlugins` (here in pixels: `with_length_unit(50.0)`), the
 //! `VerletPlugin`, then `VerletAvianPlugin`; give both engines the same gravity; put a
-//! `BodyAttachment` on a particle to fix it to a body.
+//! `BodyAttachment` on a particle to fix it to a body. The scene itself is the library function
+//! `bevy_verlet_physics::avian2d::scene::spawn` (so `tests/avian2d.rs` steps what this shows).
 
 mod common;
 
 use avian2d::prelude::*;
 use bevy::prelude::*;
-use bevy_verlet_physics::avian2d::{BodyAttachment, VerletAvianPlugin};
+use bevy_verlet_physics::avian2d::VerletAvianPlugin;
+use bevy_verlet_physics::avian2d::scene::{self, GRAVITY};
 use bevy_verlet_physics::prelude::*;
 use bevy_verlet_physics::scenes;
-
-/// Gravity in pixels per second², for both engines.
-const GRAVITY: f32 = -980.0;
 
 fn main() {
     let mut app = common::app(
@@ -40,108 +39,13 @@ fn main() {
     app.run();
 }
 
+/// The library's scene (`bevy_verlet_physics::avian2d::scene`); its avian bodies are marked so
+/// that a reset (R) removes them (composites are removed anyway).
 fn spawn_scene(commands: &mut Commands) {
-    // Ground, walls and two ramps: static avian colliders.
-    let wall = |commands: &mut Commands, at: Vec2, size: Vec2, turn: f32| {
-        commands.spawn((
-            common::SceneEntity,
-            RigidBody::Static,
-            Collider::rectangle(size.x, size.y),
-            Transform::from_translation(at.extend(0.0)).with_rotation(Quat::from_rotation_z(turn)),
-        ));
-    };
-    wall(
-        commands,
-        Vec2::new(0.0, -340.0),
-        Vec2::new(1280.0, 40.0),
-        0.0,
-    );
-    wall(
-        commands,
-        Vec2::new(-630.0, 0.0),
-        Vec2::new(20.0, 720.0),
-        0.0,
-    );
-    wall(commands, Vec2::new(630.0, 0.0), Vec2::new(20.0, 720.0), 0.0);
-    wall(
-        commands,
-        Vec2::new(-420.0, 60.0),
-        Vec2::new(300.0, 16.0),
-        -0.35,
-    );
-    wall(
-        commands,
-        Vec2::new(-200.0, -120.0),
-        Vec2::new(260.0, 16.0),
-        0.35,
-    );
-
-    wrecking_ball(commands);
-    box_stack(commands, Vec2::new(380.0, -295.0));
-    draped_cloth(commands, Vec2::new(60.0, -230.0));
-    // Two ragdolls above the ramps.
-    scenes::spawn_ragdoll(commands, Vec3::new(-470.0, 140.0, 0.0), false);
-    scenes::spawn_ragdoll(commands, Vec3::new(-380.0, 220.0, 0.0), true);
-}
-
-/// A 40 kg ball on a 20-link Verlet rope from a pin, pulled back to the left.
-fn wrecking_ball(commands: &mut Commands) {
-    let pin = Vec3::new(400.0, 250.0, 0.0);
-    let start = Vec3::new(60.0, 150.0, 0.0);
-    let ball = commands
-        .spawn((
-            common::SceneEntity,
-            RigidBody::Dynamic,
-            Collider::circle(40.0),
-            Mass(40.0),
-            Transform::from_translation(start),
-        ))
-        .id();
-    let rope = RopeBuilder::new(pin, start, 20)
-        .mass(0.2)
-        .radius(3.0)
-        .pin_start()
-        .spawn(commands);
-    // The rope's last particle is fixed to the ball's centre: the ball swings on the rope and
-    // the rope feels the ball's 40 kg.
-    let end = *rope.particles.last().unwrap();
-    commands
-        .entity(end)
-        .insert(BodyAttachment::new(ball, Vec2::ZERO));
-}
-
-/// Five rows of avian boxes.
-fn box_stack(commands: &mut Commands, base: Vec2) {
-    for row in 0..5 {
-        for column in 0..3 {
-            let at = base + Vec2::new(column as f32 * 52.0, row as f32 * 52.0 + 26.0);
-            commands.spawn((
-                common::SceneEntity,
-                RigidBody::Dynamic,
-                Collider::rectangle(50.0, 50.0),
-                Transform::from_translation(at.extend(0.0)),
-            ));
-        }
+    let scene = scene::spawn(commands);
+    for entity in scene.avian_entities() {
+        commands.entity(entity).insert(common::SceneEntity);
     }
-}
-
-/// A capsule lying on the ground and a 24 × 4 cloth strip dropped over it.
-fn draped_cloth(commands: &mut Commands, capsule: Vec2) {
-    commands.spawn((
-        common::SceneEntity,
-        RigidBody::Static,
-        Collider::capsule(40.0, 120.0),
-        Transform::from_translation(capsule.extend(0.0))
-            .with_rotation(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2)),
-    ));
-    ClothBuilder::new(
-        capsule.extend(0.0) + Vec3::new(-120.0, 150.0, 0.0),
-        24,
-        4,
-        10.0,
-    )
-    .radius(3.0)
-    .spawn(commands);
 }
 
 /// Left click where no particle is under the cursor drops a ragdoll there.

@@ -88,6 +88,7 @@ fn spawn_scene(commands: &mut Commands) {
             common::SceneEntity,
             RigidBody::Dynamic,
             Collider::cuboid(0.25, 0.25, 0.25),
+            Mass(1.0),
             Transform::from_xyz(1.2, 0.125 + 0.26 * level as f32, -0.6),
         ));
     }

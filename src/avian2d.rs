@@ -44,3 +44,6 @@ fn inverse_inertia_d(inertia: &ComputedAngularInertia, _: DQuat) -> DMat3 {
 }
 
 include!("avian/common.rs");
+
+#[path = "avian/scene2d.rs"]
+pub mod scene;

@@ -13,11 +13,16 @@ const DT: f32 = 1.0 / 64.0;
 
 /// A headless app with avian, the particles and the coupling; one fixed step per update.
 fn app(gravity: Vec2) -> App {
+    app_with(PhysicsPlugins::default(), gravity)
+}
+
+/// [`app`] with avian's plugins configured (e.g. a length unit).
+fn app_with(physics: PhysicsPlugins, gravity: Vec2) -> App {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
         TransformPlugin,
-        PhysicsPlugins::default(),
+        physics,
         VerletPlugin::default(),
         VerletAvianPlugin,
     ))
@@ -430,4 +435,76 @@ fn a_particle_asks_for_its_own_bounce() {
             "bounce to {peak} m, expected about 0.25 m"
         );
     }
+}
+
+#[test]
+fn the_example_scene_smashes_the_stack_and_drapes_the_cloth() {
+    // Exactly what `avian_2d` shows, headless, for 3 s.
+    use bevy_verlet_physics::avian2d::scene;
+    let physics = PhysicsPlugins::default().with_length_unit(50.0);
+    let mut app = app_with(physics, Vec2::Y * scene::GRAVITY);
+    let scene = {
+        let world = app.world_mut();
+        let scene = scene::spawn(&mut world.commands());
+        world.flush();
+        scene
+    };
+    let start: Vec<Vec2> = scene
+        .boxes
+        .iter()
+        .map(|&b| {
+            Vec2::new(0.0, 0.0)
+                + app
+                    .world()
+                    .get::<Transform>(b)
+                    .unwrap()
+                    .translation
+                    .truncate()
+        })
+        .collect();
+    let mut deepest = f32::INFINITY;
+    for k in 0..192 {
+        step(&mut app, 1);
+        if k % 4 == 0 {
+            eprintln!(
+                "DBG {k} ball {} v {}",
+                app.world().get::<Position>(scene.ball).unwrap().0,
+                app.world().get::<LinearVelocity>(scene.ball).unwrap().0
+            );
+        }
+        for &p in &scene.cloth.particles {
+            let x = particle(&app, p).position;
+            deepest = deepest.min(clearance(&app, x, scene.capsule) - 3.0);
+        }
+    }
+    let knocked = scene
+        .boxes
+        .iter()
+        .zip(&start)
+        .filter(|&(&b, &s)| (app.world().get::<Position>(b).unwrap().0 - s).length() > 50.0)
+        .count();
+    let ball = app.world().get::<Position>(scene.ball).unwrap().0;
+    let end = particle(&app, *scene.rope.particles.last().unwrap())
+        .position
+        .truncate();
+    let world = app.world_mut();
+    let finite = world
+        .query::<&Particle>()
+        .iter(world)
+        .all(|p| p.position.is_finite());
+    println!(
+        "{knocked} of 15 boxes knocked over 50 px; ball {ball}, rope end {end}; cloth deepest into the capsule {:.3} px",
+        -deepest
+    );
+    assert!(finite, "every particle is finite");
+    assert!(knocked >= 3, "the ball knocked {knocked} boxes");
+    assert!(
+        (ball - end).length() < 1.0,
+        "the rope lets go of the ball: {ball} vs {end}"
+    );
+    assert!(
+        deepest > -1.0,
+        "the cloth entered the capsule by {} px",
+        -deepest
+    );
 }

@@ -116,13 +116,17 @@ impl<S> ExternalCollider<S> {
     }
 }
 
+/// "No body" in [`ContactParticle::connected`].
+pub const NO_BODY: u32 = u32::MAX;
+
 /// One particle as the contact pass sees it.
 #[derive(Clone, Copy, Debug)]
 pub struct ContactParticle {
     /// Collision layers.
     pub layers: Layers,
-    /// The body it is attached to, if any (never collides with it).
-    pub attached_to: Option<u32>,
+    /// Bodies it never collides with: those attached to its island (as avian does not collide
+    /// bodies joined by a joint); [`NO_BODY`] for none.
+    pub connected: [u32; 2],
     /// `|g|·h²` of its substep (for the resting speed).
     pub gravity_step: f64,
     /// The particle's own `(restitution, friction)`, if it asks for one: averaged with the
@@ -151,7 +155,7 @@ pub fn collide_particle<S: ContactShape>(
         let overlaps = (swept_lo - radius).cmple(hi).all() && (swept_hi + radius).cmpge(lo).all();
         if !overlaps
             || !particle.layers.interacts_with(collider.layers)
-            || particle.attached_to == Some(collider.body)
+            || particle.connected.contains(&collider.body)
         {
             continue;
         }
@@ -328,7 +332,7 @@ mod tests {
         let mut impulses = Vec::new();
         let particle = ContactParticle {
             layers: Layers::default(),
-            attached_to: None,
+            connected: [NO_BODY; 2],
             gravity_step: 0.0,
             material: None,
         };

@@ -16,7 +16,9 @@
 
 use super::attachments::{AttachmentScratch, lump, release};
 use super::bodies::{Body, Pose};
-use super::contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle};
+use super::contacts::{
+    ContactParticle, ContactShape, ExternalCollider, Layers, NO_BODY, collide_particle,
+};
 use super::{Attachment, GlobalSubstep, Solver, Substep};
 use glam::DVec3;
 use std::ops::Range;
@@ -78,7 +80,8 @@ pub struct External<S> {
     pub particle_materials: Vec<Option<(f64, f64)>>,
     /// Contacts resolved in the last step.
     pub contacts: usize,
-    attached_to: Vec<u32>,
+    /// Per particle: up to two bodies attached to its island (no contacts with them).
+    connected: Vec<[u32; 2]>,
     scratch: AttachmentScratch,
     placed: Vec<(Pose, DVec3, DVec3)>,
     impulses: Vec<(u32, DVec3, DVec3)>,
@@ -95,7 +98,7 @@ impl<S> Default for External<S> {
             particle_layers: Vec::new(),
             particle_materials: Vec::new(),
             contacts: 0,
-            attached_to: Vec::new(),
+            connected: Vec::new(),
             scratch: AttachmentScratch::default(),
             placed: Vec::new(),
             impulses: Vec::new(),
@@ -105,27 +108,40 @@ impl<S> Default for External<S> {
     }
 }
 
-/// No body is attached to this particle.
-const NOT_ATTACHED: u32 = u32::MAX;
-
 impl<S: ContactShape> External<S> {
     /// Whether there is nothing to couple (every pass is skipped).
     pub fn is_empty(&self) -> bool {
         self.bodies.is_empty()
     }
 
-    /// Starts a step after the lists were filled: indexes attachments by particle.
+    /// Starts a step after the lists were filled: marks, for every particle of an island with an
+    /// attachment, the body it is attached to (particles never collide with a body attached to
+    /// their island, as avian's joints disable collisions between the bodies they join; up to
+    /// two bodies per island).
     pub fn begin_step(&mut self, solver: &Solver) {
         self.contacts = 0;
-        self.attached_to.clear();
+        self.connected.clear();
         if self.attachments.is_empty() {
             return;
         }
-        self.attached_to
-            .resize(solver.particles.len(), NOT_ATTACHED);
+        self.connected.resize(solver.particles.len(), [NO_BODY; 2]);
+        let islands = &solver.islands.list;
         for a in &self.attachments {
-            if let Some(slot) = self.attached_to.get_mut(a.particle as usize) {
-                *slot = a.body;
+            let p = a.particle;
+            let island = if solver.is_organized() {
+                islands.iter().find(|i| i.particles.contains(&p))
+            } else {
+                None
+            };
+            let range = island.map_or(0..solver.particles.len(), |i| {
+                i.particles.start as usize..i.particles.end as usize
+            });
+            for bodies in &mut self.connected[range] {
+                if !bodies.contains(&a.body)
+                    && let Some(free) = bodies.iter_mut().find(|b| **b == NO_BODY)
+                {
+                    *free = a.body;
+                }
             }
         }
     }
@@ -206,11 +222,7 @@ impl<S: ContactShape> External<S> {
         for slot in range {
             let particle = ContactParticle {
                 layers: self.particle_layers.get(slot).copied().unwrap_or_default(),
-                attached_to: self
-                    .attached_to
-                    .get(slot)
-                    .copied()
-                    .filter(|&b| b != NOT_ATTACHED),
+                connected: self.connected.get(slot).copied().unwrap_or([NO_BODY; 2]),
                 gravity_step,
                 material: self.particle_materials.get(slot).copied().flatten(),
             };
