@@ -508,3 +508,42 @@ fn the_example_scene_smashes_the_stack_and_drapes_the_cloth() {
         -deepest
     );
 }
+
+#[test]
+fn a_moving_body_wakes_a_sleeping_rope() {
+    // A rope hangs asleep from a pin; an avian ball thrown at it wakes it and swings it.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0), 5)
+            .radius(0.02)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    step(&mut app, 192);
+    let bottom = rope.particles[5];
+    assert!(
+        app.world().resource::<VerletState>().is_sleeping(bottom),
+        "the rope fell asleep"
+    );
+    let before = particle(&app, bottom).position;
+    spawn(
+        &mut app,
+        (
+            RigidBody::Dynamic,
+            Collider::circle(0.1),
+            Mass(2.0),
+            LinearVelocity(Vec2::new(4.0, 0.5)),
+            Transform::from_xyz(-0.6, 0.6, 0.0),
+        ),
+    );
+    let mut swing = 0.0f32;
+    for _ in 0..32 {
+        step(&mut app, 1);
+        swing = swing.max(particle(&app, bottom).position.x - before.x);
+    }
+    println!("the rope's end swung {swing} m after the ball hit it");
+    assert!(swing > 0.05, "the ball pushed the rope: it swung {swing} m");
+}
