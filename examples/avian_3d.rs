@@ -25,7 +25,7 @@ fn main() {
         VerletAvianPlugin,
     ))
     .insert_resource(VerletInteraction::metres())
-    .add_systems(Startup, camera_and_light);
+    .add_systems(Startup, (camera_and_light, metre_gizmos));
     common::add_scene(&mut app, spawn_scene);
     common::print_controls(&app);
     app.run();
@@ -40,6 +40,13 @@ fn camera_and_light(mut commands: Commands) {
         DirectionalLight::default(),
         Transform::from_xyz(3.0, 6.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
     ));
+}
+
+/// The debug lines' defaults are in pixels: pins marked 5 cm wide, particles as spheres.
+fn metre_gizmos(mut store: ResMut<GizmoConfigStore>) {
+    let (_, gizmos) = store.config_mut::<VerletGizmos>();
+    gizmos.pin_size = 0.05;
+    gizmos.spheres = true;
 }
 
 fn spawn_scene(commands: &mut Commands) {
