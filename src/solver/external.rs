@@ -87,6 +87,10 @@ pub struct External<S> {
     impulses: Vec<(u32, DVec3, DVec3)>,
     due: Vec<(Range<usize>, Substep)>,
     h: f64,
+    /// The largest particle radius (this step).
+    max_radius: f64,
+    /// Bounds of every placed collider, grown by `max_radius` (this substep).
+    reach: (DVec3, DVec3),
 }
 
 impl<S> Default for External<S> {
@@ -104,6 +108,8 @@ impl<S> Default for External<S> {
             impulses: Vec::new(),
             due: Vec::new(),
             h: 0.0,
+            max_radius: 0.0,
+            reach: (DVec3::ZERO, DVec3::ZERO),
         }
     }
 }
@@ -120,6 +126,11 @@ impl<S: ContactShape> External<S> {
     /// two bodies per island).
     pub fn begin_step(&mut self, solver: &Solver) {
         self.contacts = 0;
+        self.max_radius = if self.colliders.is_empty() {
+            0.0
+        } else {
+            solver.particles.radius.iter().copied().fold(0.0, f64::max)
+        };
         self.connected.clear();
         if self.attachments.is_empty() {
             return;
@@ -203,13 +214,18 @@ impl<S: ContactShape> External<S> {
         }
     }
 
+    /// Each collider's pose and bounds for this substep, and the bounds of them all (grown by
+    /// the largest particle radius) for the particles' first, cheap test.
     fn place_colliders(&mut self) {
         self.placed.clear();
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for collider in &self.colliders {
             let pose = collider.pose(&self.bodies);
-            let (lo, hi) = collider.shape.bounds(pose);
-            self.placed.push((pose, lo, hi));
+            let (a, b) = collider.shape.bounds(pose);
+            self.placed.push((pose, a, b));
+            (lo, hi) = (lo.min(a), hi.max(b));
         }
+        self.reach = (lo - self.max_radius, hi + self.max_radius);
     }
 
     fn collide_range(&mut self, solver: &mut Solver, range: Range<usize>, substep: &Substep) {
@@ -219,7 +235,12 @@ impl<S: ContactShape> External<S> {
         let gravity_step = substep.gravity.length() * substep.h * substep.h;
         let particles = &mut solver.particles;
         let start = self.impulses.len();
+        let (lo, hi) = self.reach;
         for slot in range {
+            let (x, before) = (particles.position[slot], particles.previous[slot]);
+            if x.min(before).cmpgt(hi).any() || x.max(before).cmplt(lo).any() {
+                continue; // its swept box is far from every collider
+            }
             let particle = ContactParticle {
                 layers: self.particle_layers.get(slot).copied().unwrap_or_default(),
                 connected: self.connected.get(slot).copied().unwrap_or([NO_BODY; 2]),
