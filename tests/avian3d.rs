@@ -247,3 +247,23 @@ fn momentum_is_kept_when_a_particle_hits_a_body() {
         "momentum {before} → {after}"
     );
 }
+
+#[test]
+fn a_fast_particle_does_not_pass_through_a_thin_wall() {
+    // 50 m/s (0.1 m per substep) against a 1 cm wall, in 3D.
+    let mut app = app(Vec3::ZERO);
+    app.world_mut()
+        .spawn((RigidBody::Static, Collider::cuboid(0.01, 2.0, 2.0)));
+    let p = app
+        .world_mut()
+        .spawn(
+            Particle::new(Vec3::new(-1.0, 0.0, 0.3))
+                .with_radius(0.005)
+                .with_velocity(Vec3::new(50.0, 0.0, 0.0), DT),
+        )
+        .id();
+    step(&mut app, 64);
+    let x = position(&app, p).x;
+    println!("after 1 s at 50 m/s the particle is at x = {x} (wall face at -0.005)");
+    assert!(x < -0.0099, "the particle is at x = {x}");
+}
