@@ -43,6 +43,12 @@ fn inverse_inertia_d(inertia: &ComputedAngularInertia, _: DQuat) -> DMat3 {
     DMat3::from_diagonal(DVec3::new(0.0, 0.0, f64::from(inertia.inverse())))
 }
 
+/// Whether any translation axis, and whether the rotation, is locked.
+fn any_locked(locked: &LockedAxes) -> (bool, bool) {
+    let translation = locked.is_translation_x_locked() || locked.is_translation_y_locked();
+    (translation, locked.is_rotation_locked())
+}
+
 include!("avian/common.rs");
 
 #[path = "avian/scene2d.rs"]

@@ -46,4 +46,15 @@ fn inverse_inertia_d(inertia: &ComputedAngularInertia, rotation: DQuat) -> DMat3
         .as_dmat3()
 }
 
+/// Whether any translation axis, and whether any rotation axis, is locked.
+fn any_locked(locked: &LockedAxes) -> (bool, bool) {
+    let translation = locked.is_translation_x_locked()
+        || locked.is_translation_y_locked()
+        || locked.is_translation_z_locked();
+    let rotation = locked.is_rotation_x_locked()
+        || locked.is_rotation_y_locked()
+        || locked.is_rotation_z_locked();
+    (translation, rotation)
+}
+
 include!("avian/common.rs");

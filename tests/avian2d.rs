@@ -547,3 +547,43 @@ fn a_moving_body_wakes_a_sleeping_rope() {
     println!("the rope's end swung {swing} m after the ball hit it");
     assert!(swing > 0.05, "the ball pushed the rope: it swung {swing} m");
 }
+
+#[test]
+fn a_body_with_locked_rotation_is_pushed_but_not_turned() {
+    // An off-centre hit turns a free box but not one with `LockedAxes::ROTATION_LOCKED`.
+    let mut app = app(Vec2::ZERO);
+    let hit = |app: &mut App, y: f32, locked: bool| {
+        let mut body = app.world_mut().spawn((
+            RigidBody::Dynamic,
+            Collider::rectangle(0.4, 0.4),
+            Mass(1.0),
+            Transform::from_xyz(0.0, y, 0.0),
+        ));
+        if locked {
+            body.insert(LockedAxes::ROTATION_LOCKED);
+        }
+        let body = body.id();
+        spawn(
+            app,
+            Particle::new(Vec3::new(-1.0, y + 0.15, 0.0))
+                .with_radius(0.02)
+                .with_velocity(Vec3::new(5.0, 0.0, 0.0), DT),
+        );
+        body
+    };
+    let free = hit(&mut app, 0.0, false);
+    let locked = hit(&mut app, 5.0, true);
+    step(&mut app, 32);
+    let spin = |e: Entity| app.world().get::<AngularVelocity>(e).unwrap().0;
+    let push = |e: Entity| app.world().get::<LinearVelocity>(e).unwrap().0.x;
+    println!(
+        "free: spin {} push {}; locked: spin {} push {}",
+        spin(free),
+        push(free),
+        spin(locked),
+        push(locked)
+    );
+    assert!(spin(free).abs() > 0.1, "the free box turns");
+    assert_eq!(spin(locked), 0.0, "the locked box does not turn");
+    assert!(push(locked) > 0.5, "the locked box is still pushed");
+}

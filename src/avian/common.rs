@@ -210,6 +210,7 @@ type BodyData = (
     &'static ComputedAngularInertia,
     &'static ComputedCenterOfMass,
     Option<&'static GravityScale>,
+    Option<&'static LockedAxes>,
 );
 
 /// The components a collider contributes.
@@ -375,7 +376,7 @@ fn gather_colliders(
 
 /// A body's proxy: centre-of-mass frame, velocities, mass and world inverse inertia.
 fn proxy(
-    (kind, position, rotation, linear, angular, mass, inertia, centre, scale): (
+    (kind, position, rotation, linear, angular, mass, inertia, centre, scale, locked): (
         &RigidBody,
         &Position,
         &Rotation,
@@ -385,25 +386,34 @@ fn proxy(
         &ComputedAngularInertia,
         &ComputedCenterOfMass,
         Option<&GravityScale>,
+        Option<&LockedAxes>,
     ),
     gravity: DVec3,
 ) -> Body {
     let turn = rotation_d(rotation);
     let centre = to_d(position.0) + turn * to_d(centre.0);
     let (velocity, spin) = (to_d(linear.0), angular_d(angular));
-    if !kind.is_dynamic() || mass.inverse() <= 0.0 {
-        let velocity = if kind.is_kinematic() { velocity } else { DVec3::ZERO };
-        let spin = if kind.is_kinematic() { spin } else { DVec3::ZERO };
+    // `LockedAxes`: a body that may not translate freely is immovable for the particles (it
+    // still moves by its velocity); one that may not turn gets no inverse inertia.
+    let locked = locked.copied().unwrap_or_default();
+    let (translation_locked, rotation_locked) = any_locked(&locked);
+    if !kind.is_dynamic() || mass.inverse() <= 0.0 || translation_locked {
+        // Static bodies do not move; kinematic and locked dynamic ones move by their velocity.
+        let (velocity, spin) = if kind.is_static() {
+            (DVec3::ZERO, DVec3::ZERO)
+        } else {
+            (velocity, spin)
+        };
         return Body::kinematic(centre, turn, velocity, spin);
     }
-    let mut body = Body::dynamic(
-        centre,
-        turn,
-        f64::from(mass.inverse()),
-        inverse_inertia_d(inertia, turn),
-    );
+    let inverse_inertia = if rotation_locked {
+        DMat3::ZERO
+    } else {
+        inverse_inertia_d(inertia, turn)
+    };
+    let mut body = Body::dynamic(centre, turn, f64::from(mass.inverse()), inverse_inertia);
     body.velocity = velocity;
-    body.angular_velocity = spin;
+    body.angular_velocity = if rotation_locked { DVec3::ZERO } else { spin };
     body.acceleration = gravity * f64::from(scale.map_or(1.0, |s| s.0));
     body
 }
