@@ -374,20 +374,23 @@ fn gather_colliders(
     }
 }
 
+/// One body's components, as [`BodyData`] yields them.
+type BodyItem<'a> = (
+    &'a RigidBody,
+    &'a Position,
+    &'a Rotation,
+    &'a LinearVelocity,
+    &'a AngularVelocity,
+    &'a ComputedMass,
+    &'a ComputedAngularInertia,
+    &'a ComputedCenterOfMass,
+    Option<&'a GravityScale>,
+    Option<&'a LockedAxes>,
+);
+
 /// A body's proxy: centre-of-mass frame, velocities, mass and world inverse inertia.
 fn proxy(
-    (kind, position, rotation, linear, angular, mass, inertia, centre, scale, locked): (
-        &RigidBody,
-        &Position,
-        &Rotation,
-        &LinearVelocity,
-        &AngularVelocity,
-        &ComputedMass,
-        &ComputedAngularInertia,
-        &ComputedCenterOfMass,
-        Option<&GravityScale>,
-        Option<&LockedAxes>,
-    ),
+    (kind, position, rotation, linear, angular, mass, inertia, centre, scale, locked): BodyItem,
     gravity: DVec3,
 ) -> Body {
     let turn = rotation_d(rotation);
