@@ -159,6 +159,8 @@ struct Coupled {
     body_centres: Vec<DVec3>,
     body_index: EntityHashMap<u32>,
     island_bounds: Vec<(DVec3, DVec3)>,
+    /// avian is paused this step.
+    frozen: bool,
 }
 
 impl Plugin for VerletAvianPlugin {
@@ -236,6 +238,7 @@ fn gather(
     config: Res<crate::VerletConfig>,
     gravity: Res<Gravity>,
     time: Res<Time>,
+    physics_time: Res<Time<Physics>>,
     bodies: Query<BodyData>,
     colliders: Query<ColliderData, Without<Sensor>>,
     attachments: Query<(Entity, &BodyAttachment), With<Particle>>,
@@ -244,10 +247,14 @@ fn gather(
 ) {
     let (coupled, state) = (&mut *coupled, &mut *state);
     coupled.clear();
+    // While avian is paused its bodies stand still: particles meet them as static shapes, and
+    // no impulse is handed over.
+    coupled.frozen = physics_time.is_paused();
     if !colliders.is_empty() || !attachments.is_empty() {
         let world = AvianBodies {
             bodies: &bodies,
             gravity: to_d(gravity.0),
+            frozen: coupled.frozen,
         };
         gather_attachments(coupled, state, &world, &attachments);
         island_bounds(state, f64::from(config.substeps), &mut coupled.island_bounds);
@@ -255,8 +262,7 @@ fn gather(
         gather_colliders(coupled, &world, &colliders, &coupling, step);
         let layers = || layered.iter().map(|(e, l, c)| (e, to_layers(*l), c));
         per_slot(state, layers, Layers::default(), &mut coupled.external.particle_layers);
-        let defaults = (f64::from(coupling.restitution), f64::from(coupling.friction));
-        let materials = || materials.iter().map(|item| own_material(defaults, item));
+        let materials = || materials.iter().map(own_material);
         per_slot(state, materials, None, &mut coupled.external.particle_materials);
         wake_touched(state, coupled);
     }
@@ -268,6 +274,8 @@ fn gather(
 struct AvianBodies<'a, 'w, 's> {
     bodies: &'a Query<'w, 's, BodyData>,
     gravity: DVec3,
+    /// avian is paused: every body is static.
+    frozen: bool,
 }
 
 impl Coupled {
@@ -290,7 +298,13 @@ impl Coupled {
         }
         let data = world.bodies.get(entity).ok()?;
         let index = self.external.bodies.len() as u32;
-        self.external.bodies.push(proxy(data, world.gravity));
+        let body = proxy(data, world.gravity);
+        let body = if world.frozen {
+            Body::kinematic(body.position, body.rotation, DVec3::ZERO, DVec3::ZERO)
+        } else {
+            body
+        };
+        self.external.bodies.push(body);
         self.body_entities.push(entity);
         self.body_centres.push(to_d(data.7.0));
         self.body_index.insert(entity, index);
@@ -496,10 +510,9 @@ where
     }
 }
 
-/// A particle's or composite's own `(restitution, friction)`; the one it does not set comes
-/// from `defaults`.
+/// A particle's or composite's own `(restitution, friction)`; the one it does not set is NaN
+/// (the collider's value is used for it).
 fn own_material<'a>(
-    defaults: (f64, f64),
     (entity, friction, restitution, composite): (
         Entity,
         Option<&Friction>,
@@ -507,8 +520,8 @@ fn own_material<'a>(
         Option<&'a Composite>,
     ),
 ) -> (Entity, Option<(f64, f64)>, Option<&'a Composite>) {
-    let restitution = restitution.map_or(defaults.0, |r| f64::from(r.coefficient));
-    let friction = friction.map_or(defaults.1, |f| f64::from(f.dynamic_coefficient));
+    let restitution = restitution.map_or(f64::NAN, |r| f64::from(r.coefficient));
+    let friction = friction.map_or(f64::NAN, |f| f64::from(f.dynamic_coefficient));
     (entity, Some((restitution, friction)), composite)
 }
 

@@ -129,8 +129,8 @@ pub struct ContactParticle {
     pub connected: [u32; 2],
     /// `|g|·h²` of its substep (for the resting speed).
     pub gravity_step: f64,
-    /// The particle's own `(restitution, friction)`, if it asks for one: averaged with the
-    /// collider's (avian's default combine rule).
+    /// The particle's own `(restitution, friction)`, if it asks for one: each is averaged with
+    /// the collider's (avian's default combine rule); a NaN field leaves the collider's value.
     pub material: Option<(f64, f64)>,
 }
 
@@ -166,9 +166,16 @@ pub fn collide_particle<S: ContactShape>(
         };
         touched = true;
         let own = (collider.restitution, collider.friction);
+        let combine = |mine: f64, theirs: f64| {
+            if mine.is_nan() {
+                theirs
+            } else {
+                (mine + theirs) / 2.0
+            }
+        };
         let material = particle
             .material
-            .map_or(own, |(r, f)| ((r + own.0) / 2.0, (f + own.1) / 2.0));
+            .map_or(own, |(r, f)| (combine(r, own.0), combine(f, own.1)));
         let contact = Contact {
             normal,
             depth,
