@@ -49,6 +49,16 @@ fn any_locked(locked: &LockedAxes) -> (bool, bool) {
     (translation, locked.is_rotation_locked())
 }
 
+/// 2D shapes extend through every depth: particles off the z = 0 plane (draw order) collide.
+fn full_depth(lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
+    (lo.with_z(f64::NEG_INFINITY), hi.with_z(f64::INFINITY))
+}
+
+/// A 2D surface point at the depth of the particle it was projected from.
+fn keep_depth(surface: DVec3, point: DVec3) -> DVec3 {
+    surface.with_z(point.z)
+}
+
 include!("avian/common.rs");
 
 #[path = "avian/scene2d.rs"]

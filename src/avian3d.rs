@@ -57,4 +57,14 @@ fn any_locked(locked: &LockedAxes) -> (bool, bool) {
     (translation, rotation)
 }
 
+/// 3D bounds as they are.
+fn full_depth(lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
+    (lo, hi)
+}
+
+/// A 3D surface point as it is.
+fn keep_depth(surface: DVec3, _: DVec3) -> DVec3 {
+    surface
+}
+
 include!("avian/common.rs");

@@ -609,3 +609,21 @@ fn while_avian_is_paused_its_bodies_are_static_for_particles() {
     );
     assert_eq!(velocity, Vec2::ZERO, "the paused box received no impulse");
 }
+
+#[test]
+fn a_particle_off_the_z_plane_still_collides() {
+    // 2D games give sprites a depth for draw order: a particle at z = 3 lands on the ground.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    spawn(&mut app, (RigidBody::Static, Collider::rectangle(4.0, 0.2)));
+    let p = spawn(
+        &mut app,
+        Particle::new(Vec3::new(0.0, 1.0, 3.0)).with_radius(0.05),
+    );
+    step(&mut app, 128);
+    let x = particle(&app, p).position;
+    println!("particle at z = 3 rests at {x}");
+    assert!(
+        (x.y - 0.15).abs() < 1e-3 && x.z == 3.0,
+        "the particle is at {x}"
+    );
+}

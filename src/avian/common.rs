@@ -120,7 +120,7 @@ impl ContactShape for AvianShape {
             from_d(point),
             false,
         );
-        (to_d(surface), inside)
+        (keep_depth(to_d(surface), point), inside)
     }
 
     fn cast_ray(
@@ -146,7 +146,7 @@ impl ContactShape for AvianShape {
         let aabb = self
             .0
             .aabb(from_d(pose.translation), rotation_from_d(pose.rotation));
-        (to_d(aabb.min), to_d(aabb.max))
+        full_depth(to_d(aabb.min), to_d(aabb.max))
     }
 }
 
@@ -467,8 +467,9 @@ const MARGIN: f64 = 0.05;
 /// A collider's bounds grown by how far its body can carry it in `step` seconds.
 fn swept_bounds(aabb: &ColliderAabb, body: Option<&Body>, step: f64) -> (DVec3, DVec3) {
     let (lo, hi) = (to_d(aabb.min), to_d(aabb.max));
+    let size = (hi - lo).length();
+    let (lo, hi) = full_depth(lo, hi);
     let reach = body.map_or(0.0, |body| {
-        let size = (hi - lo).length();
         (body.velocity.length() + body.angular_velocity.length() * size) * step
     });
     (lo - reach - MARGIN, hi + reach + MARGIN)
