@@ -161,6 +161,10 @@ struct Coupled {
     island_bounds: Vec<(DVec3, DVec3)>,
     /// avian is paused this step.
     frozen: bool,
+    /// The particle entity of each attachment (same order as the core's list).
+    attached: Vec<Entity>,
+    /// Each attached particle's last pull direction, kept across steps (the effective mass).
+    pull: EntityHashMap<DVec3>,
 }
 
 impl Plugin for VerletAvianPlugin {
@@ -289,6 +293,7 @@ impl Coupled {
         self.body_entities.clear();
         self.body_centres.clear();
         self.body_index.clear();
+        self.attached.clear();
     }
 
     /// The index of `entity`'s proxy, adding it if it is an avian rigid body.
@@ -348,8 +353,12 @@ fn gather_attachments(
         };
         let centre = coupled.body_centres[index as usize];
         let anchor = to_d(attachment.anchor) - centre;
-        let attachment = Attachment::new(slot, index, anchor);
+        let mut attachment = Attachment::new(slot, index, anchor);
+        if let Some(&direction) = coupled.pull.get(&particle) {
+            attachment.direction = direction;
+        }
         coupled.external.attachments.push(attachment);
+        coupled.attached.push(particle);
     }
 }
 
@@ -586,6 +595,11 @@ fn apply_impulses(
         attachments: coupled.external.attachments.len(),
         contacts: coupled.external.contacts,
     };
+    // Keep each attachment's pull direction for the next step.
+    coupled.pull.clear();
+    for (attachment, &particle) in coupled.external.attachments.iter().zip(&coupled.attached) {
+        coupled.pull.insert(particle, attachment.direction);
+    }
     let step = time.delta_secs_f64();
     // avian integrates velocity then position per substep: a constant acceleration `a` moves a
     // body by `a·Δt²·(n + 1)/(2n)` in a step of `n` substeps.
