@@ -3,6 +3,7 @@
 // `angular_from_d`, `inverse_inertia_d`) and includes this file. No inner docs here: the
 // including module documents the algorithm.
 
+use crate::solver::contacts::overlaps;
 use crate::solver::{
     Attachment, Body, ContactShape, External, ExternalCollider, GlobalSubstep, Layers, Pose,
 };
@@ -374,8 +375,7 @@ fn gather_colliders(
         let body = of.and_then(|of| world.bodies.get(of.body).ok());
         let moving = body.map(|data| proxy(data, world.gravity));
         let (lo, hi) = swept_bounds(aabb, moving.as_ref(), step);
-        let near = |&(a, b): &(DVec3, DVec3)| lo.cmple(b).all() && hi.cmpge(a).all();
-        if !coupled.island_bounds.iter().any(near) {
+        if !coupled.island_bounds.iter().any(|&island| overlaps((lo, hi), island)) {
             continue;
         }
         let pose = Pose {
@@ -561,10 +561,10 @@ fn wake_touched(state: &mut VerletState, coupled: &Coupled) {
         }
         let (lo, hi) = coupled.island_bounds[index];
         let range = state.solver.islands.list[index].particles.clone();
+        // The cheap test first: only a moving body's collider needs its bounds.
         let touched = external.colliders.iter().any(|c| {
-            let body = &external.bodies[c.body as usize];
-            let (a, b) = c.shape.bounds(c.pose(&external.bodies));
-            moving(body) && a.cmple(hi).all() && b.cmpge(lo).all()
+            moving(&external.bodies[c.body as usize])
+                && overlaps(c.shape.bounds(c.pose(&external.bodies)), (lo, hi))
         }) || external.attachments.iter().any(|a| {
             range.contains(&a.particle) && moving(&external.bodies[a.body as usize])
         });

@@ -116,6 +116,18 @@ impl<S> ExternalCollider<S> {
     }
 }
 
+/// Whether two axis-aligned boxes `(min, max)` overlap (touching counts).
+///
+/// ```
+/// use bevy_verlet_physics::solver::contacts::overlaps;
+/// use glam::DVec3;
+/// assert!(overlaps((DVec3::ZERO, DVec3::ONE), (DVec3::ONE, DVec3::splat(2.0))));
+/// assert!(!overlaps((DVec3::ZERO, DVec3::ONE), (DVec3::splat(1.5), DVec3::splat(2.0))));
+/// ```
+pub fn overlaps((lo, hi): (DVec3, DVec3), (a, b): (DVec3, DVec3)) -> bool {
+    lo.cmple(b).all() && hi.cmpge(a).all()
+}
+
 /// "No body" in [`ContactParticle::connected`].
 pub const NO_BODY: u32 = u32::MAX;
 
@@ -152,8 +164,7 @@ pub fn collide_particle<S: ContactShape>(
     let mut touched = false;
     for (collider, &(pose, lo, hi)) in colliders.iter().zip(placed) {
         let (swept_lo, swept_hi) = (position.min(*previous), position.max(*previous));
-        let overlaps = (swept_lo - radius).cmple(hi).all() && (swept_hi + radius).cmpge(lo).all();
-        if !overlaps
+        if !overlaps((swept_lo - radius, swept_hi + radius), (lo, hi))
             || !particle.layers.interacts_with(collider.layers)
             || particle.connected.contains(&collider.body)
         {
