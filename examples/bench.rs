@@ -5,6 +5,7 @@
 //! cargo run --release --example bench -- rope --links 10000 --steps 300
 //! cargo run --release --example bench -- ragdolls --count 100 --steps 300
 //! cargo run --release --example bench -- sleeping --count 100 --steps 120
+//! cargo run --release --example bench -- torn --substeps 8 --iterations 1 --steps 400
 //! ```
 //!
 //! The full plugin runs under `MinimalPlugins`, one 1/64 s fixed step per update (cloth: top
@@ -19,6 +20,8 @@
 //! `avian` (needs `--features avian2d`) times a cloth draped over an avian ball with the
 //! coupling against the same cloth over the crate's own sphere collider, both with avian
 //! running, and prints the coupling's extra cost per step.
+//! `torn` cuts the cloth example's curtain into 100 patches in place and compares its solve
+//! with the intact curtain's, before and after the next topology rebuild (sleeping off).
 //! `--threads N` runs the solver on N threads (`1`: serial; default: every core). `sleeping` lets
 //! `--count` ragdolls fall asleep, drops one more among them and compares its cost with that
 //! ragdoll dropped alone.
@@ -254,12 +257,93 @@ fn tearing(options: &Options) {
     );
 }
 
+/// Mean solve µs per step over `steps` updates.
+fn mean_solve(app: &mut App, steps: usize) -> f64 {
+    time_steps_and_plugin(app, steps).solve
+}
+
+/// The cloth example's curtain cut into 10 × 10 patches (every 10th column and 6th row of sticks
+/// cut in place, as a knife does): the solve per step intact, torn before the next topology
+/// rebuild, and torn after it (where the patches are islands of their own).
+fn torn(options: &Options) {
+    let mut app = new_app(options);
+    app.insert_resource(Gravity::PIXELS);
+    // Awake throughout, so the three phases do the same work per stick.
+    app.world_mut().resource_mut::<VerletConfig>().sleeping = Sleeping::Never;
+    let curtain = spawn(&mut app, scenes::curtain);
+    for _ in 0..32 {
+        app.update();
+    }
+    let intact = mean_solve(&mut app, options.steps);
+    let (columns, _, _) = scenes::CURTAIN;
+    let grid: std::collections::HashMap<Entity, usize> = curtain
+        .particles
+        .iter()
+        .enumerate()
+        .map(|(i, &e)| (e, i))
+        .collect();
+    let world = app.world_mut();
+    let mut cut = Vec::new();
+    {
+        let state = world.resource::<VerletState>();
+        for (i, ends) in state.solver.sticks.ends().iter().enumerate() {
+            let [a, b] = ends.map(|p| state.particle_entity(p as usize).and_then(|e| grid.get(&e)));
+            let (Some(&a), Some(&b)) = (a, b) else {
+                continue;
+            };
+            let (low, high) = (a.min(b), a.max(b));
+            let (row, column) = (low / columns, low % columns);
+            let across = high == low + 1 && column % 10 == 9;
+            let down = high == low + columns && row % 6 == 5;
+            if across || down {
+                cut.push(i);
+            }
+        }
+    }
+    let mut torn_sticks = 0;
+    let started = Instant::now();
+    for i in cut {
+        let message = world.resource_mut::<VerletState>().cut_stick(i);
+        if let Some(message) = message {
+            world.entity_mut(message.stick).despawn();
+            torn_sticks += 1;
+        }
+    }
+    app.update();
+    let cut_micros = started.elapsed().as_secs_f64() * 1e6;
+    let rebuilds = app.world().resource::<VerletStats>().rebuilds;
+    let before_rebuild = mean_solve(&mut app, options.steps);
+    assert_eq!(
+        rebuilds,
+        app.world().resource::<VerletStats>().rebuilds,
+        "no rebuild yet"
+    );
+    app.world_mut().resource_mut::<VerletState>().mark_dirty();
+    app.update();
+    let islands = app
+        .world()
+        .resource::<VerletState>()
+        .solver
+        .islands
+        .list
+        .len();
+    let after_rebuild = mean_solve(&mut app, options.steps);
+    println!(
+        "torn curtain, {} × {}: solve intact {intact:.0} µs/step; {torn_sticks} sticks cut (with the next update: {:.1} ms): {before_rebuild:.0} µs before a rebuild ({:.2}×), {after_rebuild:.0} µs after it ({islands} islands, {:.2}×)",
+        options.substeps,
+        options.iterations,
+        cut_micros / 1e3,
+        before_rebuild / intact,
+        after_rebuild / intact,
+    );
+}
+
 fn main() {
     let options = match parse() {
         Ok(options) => options,
         Err(message) => {
             eprintln!(
-                "{message}\nusage: bench [cloth|rope|ragdolls|sleeping|tearing] [--cols N --rows N | --links N | --count N] \
+                "{message}\nusage: bench [cloth|rope|ragdolls|sleeping|tearing|torn|avian] [--cols N --rows N | --links N | --count N] \
                  [--steps N] [--iterations N] [--substeps N] [--threads N]"
             );
             std::process::exit(2);
@@ -271,6 +355,10 @@ fn main() {
     }
     if options.scene == "tearing" {
         tearing(&options);
+        return;
+    }
+    if options.scene == "torn" {
+        torn(&options);
         return;
     }
     if options.scene == "avian" {

@@ -239,6 +239,8 @@ pub struct Solver {
     pub(crate) last_colliders: Vec<Collider>,
     /// Scratch counters of the parallel relaxation.
     pub(crate) counters: parallel::Counters,
+    /// Sticks were cut since the tethers were built: rebuild them before the next step.
+    pub(crate) tethers_stale: bool,
 }
 
 impl Solver {
@@ -255,6 +257,7 @@ impl Solver {
         self.island_settings.clear();
         self.island_methods.clear();
         self.wake_requests.clear();
+        self.tethers_stale = false;
         self.islands.list.0.clear();
         self.islands.batches.0.clear();
         self.islands.lines.clear();
@@ -279,6 +282,7 @@ impl Solver {
 
     /// Recomputes the tethers of the particles flagged in [`Solver::tethered`].
     pub fn rebuild_tethers(&mut self) {
+        self.tethers_stale = false;
         let organized = self.is_organized();
         self.tethered.resize(self.particles.len(), false);
         self.tethers

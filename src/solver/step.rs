@@ -143,6 +143,9 @@ impl Solver {
     /// changed since [`Solver::organize`]), wakes islands that were touched, and returns how many
     /// global substeps the step takes (see [`GlobalSubstep`]).
     pub fn begin_step(&mut self, config: &StepConfig) -> u32 {
+        if self.tethers_stale {
+            self.rebuild_tethers();
+        }
         self.check_layout();
         let changed = self.last_config != Some(*config) || self.colliders != self.last_colliders;
         if changed || config.sleep.is_none() {

@@ -66,7 +66,8 @@ pub struct Sticks {
     /// An opaque handle per stick (the Bevy layer stores `Entity::to_bits`).
     pub handle: Vec<u64>,
     /// Indices of the sticks with a finite tear strain (so that a scene without tearing pays
-    /// nothing for the tear pass).
+    /// nothing for the tear pass). Sticks cut in place ([`Solver::cut`](super::Solver::cut))
+    /// stay listed until the next tear pass drops them.
     pub tearable: Vec<u32>,
     /// A stamp that changes with every change of `ends` (see [`next_stamp`]).
     pub(crate) stamp: u64,

@@ -41,7 +41,10 @@ pub fn tear(particles: &Particles, sticks: &mut Sticks, torn: &mut Vec<u32>) -> 
         // A zero rest length has no strain: such sticks never tear.
         let strain = if rest > 0.0 { length / rest - 1.0 } else { 0.0 };
         // A NaN strain never tears (it is not greater than anything); inputs are sanitised upstream.
-        if kind[s] != StickKind::Torn && strain > tear_strain[s] {
+        if kind[s] == StickKind::Torn {
+            // Cut since the last pass (`Solver::cut`).
+            tearable.swap_remove(i);
+        } else if strain > tear_strain[s] {
             kind[s] = StickKind::Torn;
             torn.push(s as u32);
             tearable.swap_remove(i);
@@ -54,8 +57,9 @@ pub fn tear(particles: &Particles, sticks: &mut Sticks, torn: &mut Vec<u32>) -> 
 
 impl super::Solver {
     /// Cuts stick `i` in place, as a tear would: it becomes [`StickKind::Torn`] (skipped by every
-    /// sweep and line), its island wakes, and tethers are rebuilt if there are any — no topology
-    /// rebuild. Returns `false` for an unknown or already torn stick.
+    /// sweep and line), its island wakes, and tethers, if there are any, are rebuilt when the
+    /// next step begins (once for all the cuts before it) — no topology rebuild. Returns
+    /// `false` for an unknown or already torn stick.
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Solver, StickKind};
@@ -77,16 +81,15 @@ impl super::Solver {
         {
             return false;
         }
+        // (`tearable` keeps it until the next tear pass drops it: no O(sticks) search per cut.)
         self.sticks.kind[i] = StickKind::Torn;
-        self.sticks.tearable.retain(|&s| s as usize != i);
         // Torn sticks must be skipped: no batch is known all-rigid any more.
         for batch in &mut self.islands.batches.0 {
             batch.rigid = false;
         }
         self.wake_requests.push(self.sticks.ends[i][0]);
-        if !self.tethers.is_empty() {
-            self.rebuild_tethers();
-        }
+        // Once before the next step, however many sticks are cut before it.
+        self.tethers_stale |= !self.tethers.is_empty();
         true
     }
 }

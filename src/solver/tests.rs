@@ -415,3 +415,37 @@ fn tethers_across_islands_make_the_layout_stale() {
     assert_eq!(solver.tethers.len(), 1);
     assert!(!solver.is_organized());
 }
+
+#[test]
+fn cuts_rebuild_the_tethers_once_before_the_next_step() {
+    let mut solver = chain(10, 0.1, 0.0);
+    // A free particle beside the tip: the cut-off part must fall just like it.
+    let free = solver.add_particle(DVec3::new(1.0, -1.0, 0.0), 1.0);
+    for i in 0..solver.sticks.len() {
+        solver.sticks.tear_strain[i] = 10.0;
+    }
+    solver.sticks.tearable = (0..10).collect();
+    solver.tethered.iter_mut().for_each(|t| *t = true);
+    solver.organize();
+    assert_eq!(solver.tethers.len(), 10);
+    // Two cuts: particles 5..=10 lose their way to the pin.
+    assert!(solver.cut(6) && solver.cut(4));
+    assert_eq!(solver.tethers.len(), 10, "rebuilt lazily, not per cut");
+    solver.step(&StepConfig::default());
+    assert_eq!(
+        solver.tethers.len(),
+        4,
+        "only particles 1..=4 still reach the pin"
+    );
+    assert!(solver.tethers.particle.iter().all(|&p| p <= 4));
+    assert_eq!(
+        solver.sticks.tearable.len(),
+        8,
+        "the cut sticks are dropped by the tear pass"
+    );
+    let p = &solver.particles.position;
+    assert_eq!(
+        p[10].y, p[free as usize].y,
+        "no tether holds the cut-off part"
+    );
+}
