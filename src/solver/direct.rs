@@ -45,10 +45,12 @@
 //! substep instead, and the diagonal carries a relative regularisation of
 //! `10⁻⁹`. In an island that is a single line, rigid sticks found violated by more than 0.1 % at
 //! the start of a substep (an edited rest length, a spawn) are first corrected on the start
-//! positions too, so the correction does not become velocity. (Not where lines meet at forks:
-//! there the block Gauss–Seidel over lines leaves such violations every substep, and lines
-//! correcting one shared particle's start position in turn fed each other's errors — a
-//! Y-shaped rope stretched 800 % instead of 22 %.)
+//! positions too, so the correction does not become velocity (a free L-shaped rope whose links
+//! are shortened by 10 %: 0 instead of 2.4 m/s, `tests/direct.rs`). Not where lines meet at
+//! forks (trees with several pins, meshes forced onto lines): there the block Gauss–Seidel over
+//! lines leaves such violations every substep, and lines correcting one shared particle's start
+//! position in turn fed each other's errors (a Y-shaped rope stretched 809 % instead of 22 %).
+//! Trees with at most one pin are solved whole instead (see [`tree`](super::tree)).
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
@@ -112,7 +114,7 @@ const TAUT: f64 = 1e-3;
 
 /// Start-of-substep violations (`|C|/L`) above this are corrected without adding velocity (see
 /// [`LineSolve::stabilise_start`]).
-const STABILISE_ABOVE: f64 = 1e-3;
+pub(crate) const STABILISE_ABOVE: f64 = 1e-3;
 
 /// A count of Newton passes, shared by the jobs of a substep.
 #[derive(Debug, Default)]
@@ -139,10 +141,14 @@ pub(crate) struct LineScratch {
     pub warm: Vec<f64>,
     /// At a line's first stick: how the line is solved this substep.
     pub mode: Vec<LineMode>,
+    /// Per tree node (see [`tree`](super::tree)).
+    pub trees: Vec<super::tree::Node>,
 }
 
 impl LineScratch {
-    pub(crate) fn resize(&mut self, n: usize) {
+    pub(crate) fn resize(&mut self, n: usize, tree_nodes: usize) {
+        self.trees.clear();
+        self.trees.resize(tree_nodes, super::tree::Node::default());
         self.start.resize(n, DVec3::ZERO);
         self.direction.resize(n, DVec3::ZERO);
         self.upper.resize(n, 0.0);
@@ -161,6 +167,7 @@ pub(crate) struct LineViews<'a> {
     pub rhs: SharedSlice<'a, f64>,
     pub warm: SharedSlice<'a, f64>,
     pub mode: SharedSlice<'a, LineMode>,
+    pub trees: SharedSlice<'a, super::tree::Node>,
 }
 
 impl<'a> LineViews<'a> {
@@ -172,6 +179,7 @@ impl<'a> LineViews<'a> {
             rhs: SharedSlice::new(&mut scratch.rhs),
             warm: SharedSlice::new(&mut scratch.warm),
             mode: SharedSlice::new(&mut scratch.mode),
+            trees: SharedSlice::new(&mut scratch.trees),
         }
     }
 }

@@ -103,6 +103,10 @@ pub struct Island {
     pub line_groups: Range<u32>,
     /// Its sticks that no line holds (range into [`LineSet::loose`]), swept after the lines.
     pub loose: Range<u32>,
+    /// Its tree (index into [`TreeSet::trees`](super::TreeSet::trees)) when it is solved by
+    /// lines and is a tree with a fork and at most one immovable particle: then it has no lines
+    /// and is solved whole (see [`tree`](super::tree)).
+    pub tree: Option<u32>,
     /// `true` while the island sleeps (it is neither integrated nor solved).
     pub asleep: bool,
     /// How long every particle has been below the sleep speed, in seconds.
@@ -615,6 +619,7 @@ impl Solver {
             method: Method::Sweep,
             line_groups: 0..0,
             loose: 0..0,
+            tree: None,
             asleep,
             calm_time,
         });
@@ -644,6 +649,7 @@ impl Solver {
             island.method = Method::Auto; // (no override yet)
             island.line_groups = 0..0;
             island.loose = 0..0;
+            island.tree = None;
         }
         for &(particle, method) in &self.island_methods {
             if let Some(k) = islands.of_particle(particle) {
@@ -667,6 +673,18 @@ impl Solver {
             if island.method != Method::Lines {
                 continue;
             }
+            if is_chain_or_tree(sticks, particles.len()) {
+                island.tree = super::tree::build(
+                    &mut islands.lines.trees,
+                    (&mut builder.queue, &mut builder.seen),
+                    (&self.particles, &self.sticks),
+                    particles.clone(),
+                    &builder.incidence,
+                );
+                if island.tree.is_some() {
+                    continue;
+                }
+            }
             let covered = cover(
                 &mut islands.lines,
                 &mut builder.cover,
@@ -679,7 +697,10 @@ impl Solver {
             island.line_groups = covered.groups;
             island.loose = covered.loose;
         }
-        self.line_scratch.resize(islands.lines.sticks.len());
+        self.line_scratch.resize(
+            islands.lines.sticks.len(),
+            islands.lines.trees.particle.len(),
+        );
     }
 
     /// Sets [`Island::settings`] from [`Solver::island_settings`] (the larger counts win).

@@ -45,7 +45,8 @@ use std::ops::Range;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Method {
     /// Chosen per island by [`Solver::organize`](super::Solver::organize): chains and trees (no
-    /// loop, no angle constraint) → [`Method::Lines`]; everything else (rings, meshes, ragdolls
+    /// loop, no angle constraint) → [`Method::Lines`] (a tree with a fork and at most one pin
+    /// is solved whole, see [`tree`](super::tree)); everything else (rings, meshes, ragdolls
     /// with posture links, braced structures) → [`Method::Sweep`].
     #[default]
     Auto,
@@ -78,6 +79,8 @@ pub struct LineSet {
     pub sticks: Vec<u32>,
     /// Sticks of line islands that no line holds (ring closers), island after island.
     pub loose: Vec<u32>,
+    /// The trees of line islands with forks (solved whole, see [`tree`](super::tree)).
+    pub trees: super::TreeSet,
 }
 
 impl LineSet {
@@ -88,6 +91,7 @@ impl LineSet {
         self.particles.clear();
         self.sticks.clear();
         self.loose.clear();
+        self.trees.clear();
     }
 }
 
@@ -337,6 +341,9 @@ fn group(
 pub(crate) struct LineBuilder {
     pub(crate) incidence: Incidence,
     pub(crate) cover: CoverScratch,
+    /// Scratch of [`tree::build`](super::tree::build).
+    pub(crate) queue: Vec<u32>,
+    pub(crate) seen: Vec<bool>,
 }
 
 /// The sticks at every particle (compressed rows), for [`cover`].

@@ -83,6 +83,7 @@ mod step;
 mod sticks;
 mod tear;
 mod tethers;
+pub mod tree;
 
 pub use angles::{Angles, relax_angles};
 pub use attachments::{Attachment, AttachmentScratch, lump, release};
@@ -101,6 +102,7 @@ pub use step::GlobalSubstep;
 pub use sticks::{StickKind, Sticks, relax_sticks};
 pub use tear::tear;
 pub use tethers::{Tethers, relax_tethers};
+pub use tree::{Tree, TreeSet};
 
 use glam::DVec3;
 

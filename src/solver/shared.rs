@@ -97,6 +97,21 @@ impl<'a, T: Copy> SharedSlice<'a, T> {
         unsafe { *self.ptr.add(i) = value }
     }
 
+    /// The calling task's exclusive mutable slice of `range` (panics when out of bounds).
+    ///
+    /// # Safety
+    /// While the slice lives, no other task accesses an index in `range`.
+    #[allow(clippy::mut_from_ref)] // (the contract above is what makes it exclusive)
+    pub(crate) unsafe fn slice_mut(&self, range: Range<usize>) -> &mut [T] {
+        assert!(
+            range.start <= range.end && range.end <= self.len,
+            "range {range:?} out of bounds ({})",
+            self.len
+        );
+        // SAFETY: in bounds (checked); no other task accesses the range meanwhile (caller).
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
+    }
+
     /// The calling task's exclusive view of `range` (panics when out of bounds).
     ///
     /// # Safety

@@ -24,6 +24,7 @@ use super::parallel::{
 use super::shared::SharedSlice;
 use super::sticks::relax_stick_range;
 use super::tethers::relax_tether_range;
+use super::tree::TreeSolve;
 use super::{Island, Solver, StepConfig, Substep, tear};
 use glam::DVec3;
 use std::ops::Range;
@@ -493,6 +494,28 @@ impl Solver {
         first_round: bool,
     ) {
         let set = &islands.lines;
+        if let Some(tree) = island.tree.and_then(|k| set.trees.trees.get(k as usize)) {
+            let solve = TreeSolve {
+                position: &views.position,
+                previous: &views.previous,
+                mirror: None,
+                lambda: &views.stick_lambda,
+                inverse_mass: &self.particles.inverse_mass,
+                sticks: &self.sticks,
+                inv_h2: 1.0 / (substep.h * substep.h),
+                shake: substep.shake,
+                first_round,
+            };
+            let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
+            // SAFETY: the tree's nodes, particles and sticks are the island's (the layout
+            // matches the topology), which this task holds (caller).
+            let passes =
+                unsafe { solve.solve(&set.trees, tree, views.lines.trees.slice_mut(nodes)) };
+            self.line_passes
+                .0
+                .fetch_add(passes as u64, Ordering::Relaxed);
+            return;
+        }
         let solve = LineSolve {
             position: &views.position,
             previous: &views.previous,

@@ -1,0 +1,567 @@
+//! Direct solve of a tree of sticks: exact per Newton pass at forks too.
+//!
+//! # Why
+//! [Lines](super::lines) solve a chain exactly, but a tree's branches are separate lines that
+//! meet at forks, coupled there by block Gauss–Seidel: a rope that splits into three loaded
+//! branches stretches at the fork as a sweep would (a Y of 50 + 3 × 30 links with 1000× heavier
+//! tips: 935 % largest link strain at 8 × 1). Baraff ("Linear-time dynamics using Lagrange
+//! multipliers", SIGGRAPH 1996) shows that a system whose constraint graph is a tree factors
+//! without fill-in when eliminated from the leaves towards the root; this module does that for
+//! particles joined by sticks, in the same XPBD / SHAKE Newton passes as [`direct`](super::direct).
+//!
+//! # The elimination
+//! Root the tree at its immovable particle (or its first one when nothing holds it). Every other
+//! particle `j` has a parent stick `k` towards the root and a parent particle `p`. A stick moves
+//! its ends along its correction direction `r_k` (start-of-substep direction under SHAKE, else
+//! the current one): `Δx_b += w_b r_k Δλ_k`, `Δx_a −= w_a r_k Δλ_k`; its row is
+//! `n_k·(Δx_b − Δx_a) + α̃_k Δλ_k = −(C_k + α̃_k λ_k)`. Leaves first, each child stick `i` of `j`
+//! has been reduced to `Δλ_i = a_i·Δx_j + β_i`, so
+//!
+//! ```text
+//! A_j Δx_j = w_j s_j r_k Δλ_k + g_j,   A_j = I − w_j Σ_i s_ji r_i a_iᵀ,   g_j = w_j Σ_i s_ji r_i β_i
+//! Δx_j = u_j Δλ_k + v_j,               u_j = A_j⁻¹ w_j s_j r_k,           v_j = A_j⁻¹ g_j
+//! Δλ_k = a_k·Δx_p + β_k,               a_k = s_j n_k / D_k,   β_k = (b_k − s_j n_k·v_j) / D_k
+//! D_k = s_j n_k·u_j + α̃_k,             b_k = −(C_k + α̃_k λ_k)
+//! ```
+//!
+//! (`s_j = ±1`: `+1` when `j` is the stick's second end.) At the root `Δx = A⁻¹ g` (zero when it
+//! is immovable); then root to leaves `Δλ_k = a_k·Δx_p + β_k`, `Δx_j = u_j Δλ_k + v_j`. One 3 × 3
+//! inverse per particle and pass: O(n), exact for the linearised system whatever the masses. On
+//! a chain it is the Thomas algorithm of the line solve.
+//!
+//! Start violations of rigid sticks above 0.1 % (an edit, a spawn) are corrected on the start
+//! positions first, as the line solve does, so they do not become velocity.
+//!
+//! Trees with more than one immovable particle stay on lines (two pins make the system
+//! singular when the path between them is taut, which the line solve detects and sweeps). A
+//! stick torn in place or a one-sided stick out of its active set is a row with `Δλ = 0`: its
+//! subtree moves on its own.
+//!
+//! ```
+//! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
+//! use glam::DVec3;
+//! // A Y: one link from a pin, two from its end, heavy tips.
+//! let mut solver = Solver::default();
+//! let pin = solver.add_particle(DVec3::ZERO, 0.0);
+//! solver.pin(pin, DVec3::ZERO);
+//! let fork = solver.add_particle(DVec3::NEG_Y, 1.0);
+//! let left = solver.add_particle(DVec3::new(-0.6, -1.8, 0.0), 0.001);
+//! let middle = solver.add_particle(DVec3::new(0.0, -2.0, 0.0), 0.001);
+//! let right = solver.add_particle(DVec3::new(0.6, -1.8, 0.0), 0.001);
+//! for [a, b] in [[pin, fork], [fork, left], [fork, middle], [fork, right]] {
+//!     solver.sticks.push([a, b], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+//! }
+//! solver.organize();
+//! assert_eq!(solver.islands.list[0].method, Method::Lines);
+//! assert!(solver.islands.list[0].tree.is_some());
+//! for _ in 0..64 {
+//!     solver.step(&StepConfig::default());
+//! }
+//! assert!(solver.sticks.max_violation(&solver.particles) < 1e-8);
+//! ```
+
+use super::direct::{
+    LineMode, MAX_PASSES, SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE,
+};
+use super::lines::Incidence;
+use super::shared::SharedSlice;
+use super::sticks::coincident_direction;
+use super::{Particles, StickKind, Sticks};
+use glam::{DMat3, DVec3};
+use std::ops::Range;
+
+/// Relative regularisation of `D_k` (as the line solve's diagonal).
+const REGULARISATION: f64 = 1e-9;
+
+/// No parent (the root's parent stick and node).
+const NONE: u32 = u32::MAX;
+
+/// One tree: a range of nodes in [`TreeSet`], the root first, every node after its parent.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Tree {
+    /// Range into the node arrays of [`TreeSet`].
+    pub nodes: Range<u32>,
+}
+
+/// Every tree-solved island's nodes (breadth-first from the root, tree after tree).
+#[derive(Clone, Debug, Default)]
+pub struct TreeSet {
+    /// The trees.
+    pub trees: Vec<Tree>,
+    /// Particle slot of every node.
+    pub particle: Vec<u32>,
+    /// The stick to the node's parent ([`u32::MAX`] at a root).
+    pub stick: Vec<u32>,
+    /// The parent node, as an index into the node arrays ([`u32::MAX`] at a root).
+    pub parent: Vec<u32>,
+}
+
+impl TreeSet {
+    /// Removes every tree, keeping the allocations.
+    pub fn clear(&mut self) {
+        self.trees.clear();
+        self.particle.clear();
+        self.stick.clear();
+        self.parent.clear();
+    }
+}
+
+/// Roots a tree at the island's immovable particle and appends its nodes to `set`; `None` when
+/// the island should stay on lines: no fork (a chain), more than one immovable particle, or
+/// not connected. `queue` and `seen` are scratch (`seen` as long as the particles, all
+/// `false`, left so).
+pub(crate) fn build(
+    set: &mut TreeSet,
+    (queue, seen): (&mut Vec<u32>, &mut Vec<bool>),
+    (particles, sticks): (&Particles, &Sticks),
+    island_particles: Range<u32>,
+    incidence: &Incidence,
+) -> Option<u32> {
+    let fork = island_particles.clone().any(|p| incidence.degree(p) > 2);
+    let mut immovable = island_particles
+        .clone()
+        .filter(|&p| particles.inverse_mass[p as usize] <= 0.0);
+    let root = immovable.next().unwrap_or(island_particles.start);
+    if !fork || immovable.next().is_some() {
+        return None;
+    }
+    seen.resize(particles.len(), false);
+    let start = set.particle.len();
+    queue.clear();
+    queue.push(root);
+    seen[root as usize] = true;
+    set.particle.push(root);
+    set.stick.push(NONE);
+    set.parent.push(NONE);
+    let mut head = 0;
+    while head < queue.len() {
+        let (p, node) = (queue[head], (start + head) as u32);
+        head += 1;
+        for &s in incidence.of(p) {
+            let [a, b] = sticks.ends[s as usize];
+            let other = if a == p { b } else { a };
+            if !seen[other as usize] {
+                seen[other as usize] = true;
+                queue.push(other);
+                set.particle.push(other);
+                set.stick.push(s);
+                set.parent.push(node);
+            }
+        }
+    }
+    for &p in queue.iter() {
+        seen[p as usize] = false;
+    }
+    if queue.len() != island_particles.len() {
+        set.particle.truncate(start);
+        set.stick.truncate(start);
+        set.parent.truncate(start);
+        return None;
+    }
+    set.trees.push(Tree {
+        nodes: start as u32..set.particle.len() as u32,
+    });
+    Some(set.trees.len() as u32 - 1)
+}
+
+/// Per node scratch, indexed like the node arrays of [`TreeSet`] (stick: the node's parent
+/// stick).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Node {
+    /// `A_j` (accumulated from the children during the forward traversal).
+    matrix: DMat3,
+    /// `g_j`.
+    load: DVec3,
+    u: DVec3,
+    v: DVec3,
+    /// `a_k`, `β_k` of the parent stick.
+    a: DVec3,
+    beta: f64,
+    /// The parent stick's start-of-substep direction and correction direction.
+    start: DVec3,
+    direction: DVec3,
+    /// `Δx_j` of the pass.
+    dx: DVec3,
+    /// The parent stick's multiplier at the end of the last substep (the next warm start).
+    warm: f64,
+    /// At a tree's root: how the tree is solved this substep.
+    mode: LineMode,
+}
+
+impl Default for Node {
+    fn default() -> Self {
+        Self {
+            matrix: DMat3::IDENTITY,
+            load: DVec3::ZERO,
+            u: DVec3::ZERO,
+            v: DVec3::ZERO,
+            a: DVec3::ZERO,
+            beta: 0.0,
+            start: DVec3::ZERO,
+            direction: DVec3::ZERO,
+            dx: DVec3::ZERO,
+            warm: 0.0,
+            mode: LineMode::Project,
+        }
+    }
+}
+
+/// Everything one tree solve reads and writes.
+#[derive(Clone, Copy)]
+pub(crate) struct TreeSolve<'a, 'v> {
+    pub position: &'a SharedSlice<'v, DVec3>,
+    pub previous: &'a SharedSlice<'v, DVec3>,
+    /// Receives every move made to `position` too (set while stabilising the start positions).
+    pub mirror: Option<&'a SharedSlice<'v, DVec3>>,
+    pub lambda: &'a SharedSlice<'v, f64>,
+    pub inverse_mass: &'a [f64],
+    pub sticks: &'a Sticks,
+    /// `1/h²`.
+    pub inv_h2: f64,
+    /// Correct along the start-of-substep directions (SHAKE) instead of the current ones.
+    pub shake: bool,
+    /// First round of the substep: λ starts from the warm start, SHAKE is decided.
+    pub first_round: bool,
+}
+
+/// One node's parent stick at the current iterate.
+struct Row {
+    stick: usize,
+    /// `s_j`: `+1` when the node is the stick's second end.
+    sign: f64,
+    normal: DVec3,
+    c: f64,
+    active: bool,
+}
+
+impl TreeSolve<'_, '_> {
+    /// Solves tree `tree` of `set` with its nodes' scratch `s` (indexed from the tree's first
+    /// node); returns the Newton passes taken.
+    ///
+    /// # Safety
+    /// No other task accesses the tree's particles or its sticks' multipliers while this runs,
+    /// and its node arrays hold valid particle and stick indices (as [`build`] makes them).
+    pub(crate) unsafe fn solve(&self, set: &TreeSet, tree: &Tree, s: &mut [Node]) -> u32 {
+        let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
+        assert_eq!(s.len(), nodes.len(), "one scratch node per tree node");
+        let view = TreeView {
+            particle: &set.particle[nodes.clone()],
+            stick: &set.stick[nodes],
+            parent: &set.parent[tree.nodes.start as usize..tree.nodes.end as usize],
+            offset: tree.nodes.start,
+        };
+        // SAFETY: this task alone holds the tree's particles and multipliers (caller).
+        unsafe {
+            let mut predicted = f64::INFINITY;
+            if self.first_round {
+                let violated;
+                (predicted, violated) = self.begin(&view, s);
+                if violated > STABILISE_ABOVE {
+                    self.take_back(&view, s);
+                    self.stabilise_start(&view, s);
+                    predicted = self.begin(&view, s).0;
+                }
+            }
+            let shaking = s[0].mode == LineMode::Shake;
+            let budget = if shaking { SHAKE_PASSES } else { MAX_PASSES };
+            let (mut passes, converged) = self.newton(&view, s, budget, predicted);
+            if shaking && !converged {
+                self.take_back(&view, s);
+                s[0].mode = LineMode::Project;
+                passes += self.newton(&view, s, MAX_PASSES, f64::INFINITY).0;
+            }
+            for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
+                node.warm = self.lambda.get(k as usize);
+            }
+            passes
+        }
+    }
+
+    /// Start of the substep: start directions, the mode (SHAKE when no stick turns more than
+    /// ≈ 8°), and the warm start along the start directions (SHAKE only). Returns the largest
+    /// `|C|/L` before the warm start, and the largest of a rigid stick at the start positions.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn begin(&self, view: &TreeView, s: &mut [Node]) -> (f64, f64) {
+        let mut shake = self.shake;
+        let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
+        // SAFETY: the tree's particles and multipliers are this task's (caller).
+        unsafe {
+            for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
+                let k = k as usize;
+                let [a, b] = self.sticks.ends[k].map(|p| p as usize);
+                let (start, start_length) =
+                    unit_and_length(self.previous.get(b) - self.previous.get(a), k);
+                let d = self.position.get(b) - self.position.get(a);
+                let length = d.length();
+                let rest = self.sticks.rest_length[k].max(1e-12);
+                predicted = predicted.max((length - rest).abs() / rest);
+                let rigid =
+                    self.sticks.kind[k] == StickKind::Equal && self.sticks.compliance[k] == 0.0;
+                if rigid && self.inverse_mass[a] + self.inverse_mass[b] > 0.0 {
+                    violated = violated.max((start_length - rest).abs() / rest);
+                }
+                shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
+                node.start = start;
+            }
+            s[0].mode = if shake {
+                LineMode::Shake
+            } else {
+                LineMode::Project
+            };
+            for (node, &k) in s.iter().zip(view.stick).skip(1) {
+                let k = k as usize;
+                let warm = match self.sticks.kind[k] {
+                    _ if !shake => 0.0,
+                    StickKind::Equal => node.warm,
+                    StickKind::AtMost => node.warm.min(0.0),
+                    StickKind::AtLeast => node.warm.max(0.0),
+                    StickKind::Torn => 0.0,
+                };
+                self.lambda.set(k, warm);
+                self.move_ends(k, node.start * warm);
+            }
+        }
+        (predicted, violated)
+    }
+
+    /// Moves the start-of-substep positions onto the constraints (Newton on the previous
+    /// positions) and the current positions by the same amounts, so a violation at the start —
+    /// an edited rest length, a spawn — is corrected without becoming velocity (as the line
+    /// solve's `stabilise_start`).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn stabilise_start(&self, view: &TreeView, s: &mut [Node]) {
+        let mode = s[0].mode;
+        s[0].mode = LineMode::Project;
+        let start = TreeSolve {
+            position: self.previous,
+            mirror: Some(self.position),
+            shake: false,
+            first_round: false,
+            ..*self
+        };
+        // SAFETY: as for `solve` (caller).
+        unsafe {
+            start.newton(view, s, MAX_PASSES, f64::INFINITY);
+            for t in 1..view.particle.len() {
+                self.lambda.set(view.stick[t] as usize, 0.0);
+            }
+        }
+        s[0].mode = mode;
+    }
+
+    /// Newton passes until the tree is within [`TOLERANCE`] or `budget` passes are done (a warm
+    /// start that made things worse than `predicted` is taken back first).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn newton(
+        &self,
+        view: &TreeView,
+        s: &mut [Node],
+        budget: u32,
+        predicted: f64,
+    ) -> (u32, bool) {
+        // SAFETY: as for `solve` (caller).
+        unsafe {
+            let mut error = self.forward(view, s);
+            if error > predicted {
+                self.take_back(view, s);
+                error = self.forward(view, s);
+            }
+            let mut passes = 0;
+            loop {
+                if passes > 0 {
+                    error = self.forward(view, s);
+                }
+                if error <= TOLERANCE {
+                    return (passes, true);
+                }
+                if passes == budget {
+                    return (passes, false);
+                }
+                self.backward(view, s);
+                passes += 1;
+            }
+        }
+    }
+
+    /// The parent stick of node `t` at the current iterate.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn row(&self, view: &TreeView, t: usize) -> Row {
+        let k = view.stick[t] as usize;
+        let [a, b] = self.sticks.ends[k].map(|p| p as usize);
+        // SAFETY: the tree's particles are this task's (caller).
+        let d = unsafe { self.position.get(b) - self.position.get(a) };
+        let (normal, length) = unit_and_length(d, k);
+        let c = length - self.sticks.rest_length[k];
+        let movable = self.inverse_mass[a] + self.inverse_mass[b] > 0.0;
+        let active = movable
+            && match self.sticks.kind[k] {
+                StickKind::Equal => true,
+                StickKind::AtMost => c > 0.0,
+                StickKind::AtLeast => c < 0.0,
+                StickKind::Torn => false,
+            };
+        let sign = if b as u32 == view.particle[t] {
+            1.0
+        } else {
+            -1.0
+        };
+        Row {
+            stick: k,
+            sign,
+            normal,
+            c,
+            active,
+        }
+    }
+
+    /// Leaves to root: every stick reduced to `Δλ_k = a_k·Δx_p + β_k`. Returns the largest
+    /// `|C + α̃λ|/L` of the active sticks.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn forward(&self, view: &TreeView, s: &mut [Node]) -> f64 {
+        let shake = s[0].mode == LineMode::Shake;
+        for node in s.iter_mut() {
+            node.matrix = DMat3::IDENTITY;
+            node.load = DVec3::ZERO;
+        }
+        let mut worst: f64 = 0.0;
+        for t in (1..view.particle.len()).rev() {
+            // SAFETY: as for `solve` (caller).
+            let row = unsafe { self.row(view, t) };
+            let r = if shake { s[t].start } else { row.normal };
+            s[t].direction = r;
+            let w = self.inverse_mass[view.particle[t] as usize];
+            let inverse = if w > 0.0 {
+                s[t].matrix.inverse()
+            } else {
+                DMat3::ZERO
+            };
+            s[t].u = inverse * (r * (w * row.sign));
+            s[t].v = inverse * s[t].load;
+            let k = row.stick;
+            let rest = self.sticks.rest_length[k].max(1e-12);
+            let alpha = self.sticks.compliance[k] * self.inv_h2;
+            // SAFETY: as for `solve` (caller).
+            let residual = row.c + alpha * unsafe { self.lambda.get(k) };
+            let n = row.normal * row.sign;
+            let d = n.dot(s[t].u) * (1.0 + REGULARISATION) + alpha;
+            // (Under SHAKE the system is not symmetric and a pivot may be negative; zero is a
+            // stick no particle of its subtree can move: an immovable child, which `build`
+            // roots at, or a pin added in place.)
+            if !row.active || d == 0.0 || !d.is_finite() {
+                s[t].a = DVec3::ZERO;
+                s[t].beta = 0.0;
+                continue;
+            }
+            worst = worst.max(residual.abs() / rest);
+            s[t].a = n / d;
+            s[t].beta = (-residual - n.dot(s[t].v)) / d;
+            // Into the parent: A_p −= w_p s_p r aᵀ, g_p += w_p s_p r β (s_p = −s_j).
+            let parent = (view.parent[t] - view.offset) as usize;
+            let wp = self.inverse_mass[view.particle[parent] as usize];
+            let pull = r * (wp * row.sign);
+            s[parent].matrix += outer(pull, s[t].a);
+            s[parent].load -= pull * s[t].beta;
+        }
+        worst
+    }
+
+    /// Root to leaves: `Δλ_k = a_k·Δx_p + β_k`, `Δx_j = u_j Δλ_k + v_j`; λ updated and each
+    /// stick's ends moved by `±w r_k Δλ_k` (the same motion, up to rounding, but exactly what
+    /// λ says: [`TreeSolve::take_back`] relies on it).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn backward(&self, view: &TreeView, s: &mut [Node]) {
+        let root = view.particle[0] as usize;
+        s[0].dx = if self.inverse_mass[root] > 0.0 {
+            s[0].matrix.inverse() * s[0].load
+        } else {
+            DVec3::ZERO
+        };
+        for t in 1..view.particle.len() {
+            let parent = (view.parent[t] - view.offset) as usize;
+            let step = s[t].a.dot(s[parent].dx) + s[t].beta;
+            let step = if step.is_finite() { step } else { 0.0 };
+            let dx = s[t].u * step + s[t].v;
+            s[t].dx = if dx.is_finite() { dx } else { DVec3::ZERO };
+            let k = view.stick[t] as usize;
+            // SAFETY: as for `solve` (caller).
+            unsafe {
+                self.lambda.set(k, self.lambda.get(k) + step);
+                self.move_ends(k, s[t].direction * step);
+            }
+        }
+    }
+
+    /// Takes back every correction of the substep so far (all along the start directions: the
+    /// warm start and SHAKE passes); λ = 0 after.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn take_back(&self, view: &TreeView, s: &mut [Node]) {
+        for (node, &k) in s.iter().zip(view.stick).skip(1) {
+            let k = k as usize;
+            // SAFETY: as for `solve` (caller).
+            unsafe {
+                let lambda = self.lambda.get(k);
+                self.lambda.set(k, 0.0);
+                self.move_ends(k, -node.start * lambda);
+            }
+        }
+    }
+
+    /// Moves stick `k`'s ends by `r λ` (second end `+w_b`, first end `−w_a`).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn move_ends(&self, k: usize, by: DVec3) {
+        let [a, b] = self.sticks.ends[k].map(|p| p as usize);
+        for (p, sign) in [(a, -1.0), (b, 1.0)] {
+            let w = self.inverse_mass[p];
+            if w > 0.0 {
+                let by = by * (w * sign);
+                // SAFETY: as for `solve` (caller).
+                unsafe {
+                    self.position.set(p, self.position.get(p) + by);
+                    if let Some(mirror) = self.mirror {
+                        mirror.set(p, mirror.get(p) + by);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// One tree's node arrays.
+struct TreeView<'a> {
+    particle: &'a [u32],
+    stick: &'a [u32],
+    parent: &'a [u32],
+    /// The tree's first node in the set (parents are absolute indices).
+    offset: u32,
+}
+
+/// `x yᵀ`.
+fn outer(x: DVec3, y: DVec3) -> DMat3 {
+    DMat3::from_cols(x * y.x, x * y.y, x * y.z)
+}
+
+/// The unit vector along `d` and its length (stick `k`'s fixed direction for coincident ends).
+fn unit_and_length(d: DVec3, k: usize) -> (DVec3, f64) {
+    let length = d.length();
+    if length > 1e-12 {
+        (d / length, length)
+    } else {
+        (coincident_direction(k), length)
+    }
+}
