@@ -161,12 +161,32 @@ fn colour_batches_share_no_particle_and_cover_every_stick_once() {
 fn parallel_solving_is_bitwise_identical_to_serial() {
     let mut serial = Solver::default();
     cloth(&mut serial, 72, 0.05, DVec3::ZERO, &[(0, 0), (71, 0)]);
+    let first_rope = serial.particles.len() as u32;
     interleaved_ropes(&mut serial, 400, 50);
+    // A 10-link branch from the middle of every fourth rope: 100 trees, solved whole.
+    for r in (0..400).step_by(4) {
+        let mut from = first_rope + (25 * 400 + r) as u32;
+        for _ in 0..10 {
+            let at = serial.particles.position[from as usize] + DVec3::new(0.0, 0.1, 0.0);
+            let p = serial.add_particle(at, 1.0);
+            serial
+                .sticks
+                .push([from, p], 0.1, 0.0, StickKind::Equal, f64::INFINITY, 0);
+            from = p;
+        }
+    }
     serial.organize();
+    let trees = serial
+        .islands
+        .list
+        .iter()
+        .filter(|i| i.tree.is_some())
+        .count();
+    assert_eq!(trees, 100);
     let mut threaded = serial.clone();
     let mut four = serial.clone();
-    // 4 iterations: the cloth (10 224 sticks × 4) is solved on every thread, the 400 ropes
-    // (100 k units of work) are spread in groups.
+    // 4 iterations: the cloth (10 224 sticks × 4) is solved on every thread, the 400 ropes and
+    // trees (100 k units of work) are spread in groups.
     let config = config(4, 4);
     for _ in 0..30 {
         serial.step_with(&config, &Serial);

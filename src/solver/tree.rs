@@ -168,7 +168,12 @@ pub(crate) fn build(
 /// stick).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Node {
-    /// `A_j` (accumulated from the children during the forward traversal).
+    /// `A_j = I + Σ pᵢ aᵢᵀ`, accumulated from the children during the forward traversal: with
+    /// one child (a chain) as `first_pull`, `first_a` (solved by Sherman–Morrison), in `matrix`
+    /// from the second on.
+    children: u32,
+    first_pull: DVec3,
+    first_a: DVec3,
     matrix: DMat3,
     /// `g_j`.
     load: DVec3,
@@ -191,6 +196,9 @@ pub(crate) struct Node {
 impl Default for Node {
     fn default() -> Self {
         Self {
+            children: 0,
+            first_pull: DVec3::ZERO,
+            first_a: DVec3::ZERO,
             matrix: DMat3::IDENTITY,
             load: DVec3::ZERO,
             u: DVec3::ZERO,
@@ -202,6 +210,44 @@ impl Default for Node {
             dx: DVec3::ZERO,
             warm: 0.0,
             mode: LineMode::Project,
+        }
+    }
+}
+
+impl Node {
+    /// Forgets the children's contributions (before they are accumulated again).
+    fn clear(&mut self) {
+        self.children = 0;
+        self.load = DVec3::ZERO;
+    }
+
+    /// Adds a child's `p aᵀ` to `A`.
+    fn add_child(&mut self, pull: DVec3, a: DVec3) {
+        match self.children {
+            0 => (self.first_pull, self.first_a) = (pull, a),
+            1 => {
+                self.matrix =
+                    DMat3::IDENTITY + outer(self.first_pull, self.first_a) + outer(pull, a)
+            }
+            _ => self.matrix += outer(pull, a),
+        }
+        self.children += 1;
+    }
+
+    /// `(A⁻¹ x, A⁻¹ y)`.
+    fn solve_pair(&self, x: DVec3, y: DVec3) -> (DVec3, DVec3) {
+        match self.children {
+            0 => (x, y),
+            1 => {
+                // Sherman–Morrison: (I + p aᵀ)⁻¹ z = z − p (a·z) / (1 + a·p).
+                let (p, a) = (self.first_pull, self.first_a);
+                let scale = 1.0 / (1.0 + a.dot(p));
+                (x - p * (a.dot(x) * scale), y - p * (a.dot(y) * scale))
+            }
+            _ => {
+                let inverse = self.matrix.inverse();
+                (inverse * x, inverse * y)
+            }
         }
     }
 }
@@ -429,10 +475,8 @@ impl TreeSolve<'_, '_> {
     /// As for [`TreeSolve::solve`].
     unsafe fn forward(&self, view: &TreeView, s: &mut [Node]) -> f64 {
         let shake = s[0].mode == LineMode::Shake;
-        for node in s.iter_mut() {
-            node.matrix = DMat3::IDENTITY;
-            node.load = DVec3::ZERO;
-        }
+        // (Every other node clears its accumulators once it has used them, below.)
+        s[0].clear();
         let mut worst: f64 = 0.0;
         for t in (1..view.particle.len()).rev() {
             // SAFETY: as for `solve` (caller).
@@ -440,13 +484,13 @@ impl TreeSolve<'_, '_> {
             let r = if shake { s[t].start } else { row.normal };
             s[t].direction = r;
             let w = self.inverse_mass[view.particle[t] as usize];
-            let inverse = if w > 0.0 {
-                s[t].matrix.inverse()
+            if w > 0.0 {
+                let node = &mut s[t];
+                (node.u, node.v) = node.solve_pair(r * (w * row.sign), node.load);
             } else {
-                DMat3::ZERO
-            };
-            s[t].u = inverse * (r * (w * row.sign));
-            s[t].v = inverse * s[t].load;
+                (s[t].u, s[t].v) = (DVec3::ZERO, DVec3::ZERO);
+            }
+            s[t].clear();
             let k = row.stick;
             let rest = self.sticks.rest_length[k].max(1e-12);
             let alpha = self.sticks.compliance[k] * self.inv_h2;
@@ -469,8 +513,9 @@ impl TreeSolve<'_, '_> {
             let parent = (view.parent[t] - view.offset) as usize;
             let wp = self.inverse_mass[view.particle[parent] as usize];
             let pull = r * (wp * row.sign);
-            s[parent].matrix += outer(pull, s[t].a);
-            s[parent].load -= pull * s[t].beta;
+            let (a, beta) = (s[t].a, s[t].beta);
+            s[parent].add_child(pull, a);
+            s[parent].load -= pull * beta;
         }
         worst
     }
@@ -484,7 +529,7 @@ impl TreeSolve<'_, '_> {
     unsafe fn backward(&self, view: &TreeView, s: &mut [Node]) {
         let root = view.particle[0] as usize;
         s[0].dx = if self.inverse_mass[root] > 0.0 {
-            s[0].matrix.inverse() * s[0].load
+            s[0].solve_pair(s[0].load, DVec3::ZERO).0
         } else {
             DVec3::ZERO
         };
