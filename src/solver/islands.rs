@@ -404,7 +404,7 @@ impl Solver {
                 !is_chain_or_tree(sticks, grouping.particles(island as usize).len())
             })
         };
-        let level = sweep_levels(sticks);
+        let level = sweep_levels(sticks, self.particles.len());
         let key = |i: u32| {
             let island = island_of_stick(i);
             let [a, b] = sticks.ends[i as usize];
@@ -762,19 +762,10 @@ impl Solver {
 /// particle: the processor overlaps them instead of waiting for each square root and division
 /// to finish before the next stick can read its result (a 10 × 6 cloth patch in the cloth
 /// builder's order: 104 sticks in 28 levels; a chain has one stick per level and gains
-/// nothing). This is list
-/// scheduling of the sweep's dependency graph (e.g. Sinnen, *Task Scheduling for Parallel
-/// Systems*, 2007, ch. 5).
-fn sweep_levels(sticks: &super::Sticks) -> Vec<u32> {
-    let mut last = vec![
-        0u32;
-        sticks
-            .ends
-            .iter()
-            .flatten()
-            .max()
-            .map_or(0, |&p| p as usize + 1)
-    ];
+/// nothing). This is list scheduling of the sweep's dependency graph (e.g. Sinnen, *Task
+/// Scheduling for Parallel Systems*, 2007, ch. 5). `particles`: how many there are.
+fn sweep_levels(sticks: &super::Sticks, particles: usize) -> Vec<u32> {
+    let mut last = vec![0u32; particles];
     let torn = |i: usize| sticks.kind[i] == StickKind::Torn;
     (0..sticks.len())
         .map(|i| {
@@ -877,7 +868,7 @@ mod tests {
     #[test]
     fn sweeping_by_level_computes_the_same_bits_with_independent_neighbours() {
         let sticks = grid_sticks(10, 6);
-        let level = sweep_levels(&sticks);
+        let level = sweep_levels(&sticks, 60);
         let in_index_order: Vec<usize> = (0..sticks.len()).collect();
         let mut by_level = in_index_order.clone();
         by_level.sort_by_key(|&i| (level[i], i));

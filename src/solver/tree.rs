@@ -84,6 +84,23 @@ pub struct Tree {
 }
 
 /// Every tree-solved island's nodes (breadth-first from the root, tree after tree).
+///
+/// ```
+/// use bevy_verlet_physics::solver::{Solver, StickKind};
+/// use glam::DVec3;
+/// // A pinned particle with three sticks hanging from it: a tree of four nodes.
+/// let mut solver = Solver::default();
+/// let pin = solver.add_particle(DVec3::ZERO, 0.0);
+/// solver.pin(pin, DVec3::ZERO);
+/// for x in [-1.0, 0.0, 1.0] {
+///     let p = solver.add_particle(DVec3::new(x, -1.0, 0.0), 1.0);
+///     solver.sticks.push([pin, p], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+/// }
+/// solver.organize();
+/// let trees = &solver.islands.lines().trees;
+/// assert_eq!(trees.trees.len(), 1);
+/// assert_eq!(trees.particle[0], pin); // the root
+/// ```
 #[derive(Clone, Debug, Default)]
 pub struct TreeSet {
     /// The trees.
