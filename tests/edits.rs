@@ -337,6 +337,57 @@ fn grabbing_costs_no_rebuild() {
     check_consistency(&mut app).unwrap();
 }
 
+/// Grabbing a branch tip of a rope that forks: the island was solved whole as a tree rooted at
+/// its one pin, so a second pin takes a rebuild (back to lines meeting at the fork) instead of
+/// an in-place edit; the grabbed tip follows and the rope stays together.
+#[test]
+fn grabbing_a_forked_rope_rebuilds_it_as_lines() {
+    let mut app = app();
+    let (rope, tip) = spawn(&mut app, |c| {
+        let rope = RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0), 10)
+            .pin_start()
+            .spawn(c);
+        let mut from = rope.particles[5];
+        for i in 1..=5 {
+            let p = c
+                .spawn(Particle::new(Vec3::new(0.1 * i as f32, -0.5, 0.0)))
+                .id();
+            c.spawn(Stick::new(from, p));
+            from = p;
+        }
+        (rope, from)
+    });
+    step(&mut app, 2);
+    let tree = |app: &App| {
+        let state = app.world().resource::<VerletState>();
+        let slot = state.slot(rope.particles[0]).unwrap();
+        let k = state.solver.islands.of_particle(slot).unwrap();
+        state.solver.islands.list[k].tree.is_some()
+    };
+    assert!(tree(&app), "one pin: solved as a tree");
+    let before = rebuilds(&app);
+    let grab = position(&app, tip);
+    app.world_mut().entity_mut(tip).insert(Pin::at(grab));
+    step(&mut app, 1);
+    assert_eq!(rebuilds(&app), before + 1, "a second pin rebuilds the tree");
+    assert!(!tree(&app), "two pins: lines");
+    for i in 1..=10 {
+        let target = grab + Vec3::X * 0.02 * i as f32;
+        app.world_mut()
+            .get_mut::<Pin>(tip)
+            .unwrap()
+            .set_position(target);
+        step(&mut app, 1);
+        assert!((position(&app, tip) - target).length() < 1e-5);
+    }
+    check_consistency(&mut app).unwrap();
+    assert!(
+        max_strain(&mut app) < 0.05,
+        "strain {}",
+        max_strain(&mut app)
+    );
+}
+
 /// `Pin::follow` maps its offset through the target's up-to-date `GlobalTransform`: a child of
 /// a rotated and scaled parent (before: the child's local translation plus the offset,
 /// (1.5, 0, 0) instead of (1, 3, 0)).

@@ -32,6 +32,9 @@
 //! Start violations of rigid sticks above 0.1 % (an edit, a spawn) are corrected on the start
 //! positions first, as the line solve does, so they do not become velocity.
 //!
+//! A particle made immovable in place below the root (a pin added without a rebuild; the Bevy
+//! layer rebuilds then) would make the system singular: such a tree is swept for the substep.
+//!
 //! Trees with more than one immovable particle stay on lines (two pins make the system
 //! singular when the path between them is taut, which the line solve detects and sweeps). A
 //! stick torn in place or a one-sided stick out of its active set is a row with `Δλ = 0`: its
@@ -65,7 +68,7 @@ use super::direct::{
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
-use super::sticks::coincident_direction;
+use super::sticks::{coincident_direction, relax_stick_range};
 use super::{Particles, StickKind, Sticks};
 use glam::{DMat3, DVec3};
 use std::ops::Range;
@@ -316,7 +319,9 @@ impl TreeSolve<'_, '_> {
         // SAFETY: this task alone holds the tree's particles and multipliers (caller).
         unsafe {
             let mut predicted = f64::INFINITY;
-            if self.first_round {
+            if self.first_round && self.pinned_below_root(&view) {
+                s[0].mode = LineMode::Sweep;
+            } else if self.first_round {
                 let violated;
                 (predicted, violated) = self.begin(&view, s);
                 if violated > STABILISE_ABOVE {
@@ -324,6 +329,10 @@ impl TreeSolve<'_, '_> {
                     self.stabilise_start(&view, s);
                     predicted = self.begin(&view, s).0;
                 }
+            }
+            if s[0].mode == LineMode::Sweep {
+                self.sweep(&view, s);
+                return 0;
             }
             let shaking = s[0].mode == LineMode::Shake;
             let budget = if shaking { SHAKE_PASSES } else { MAX_PASSES };
@@ -337,6 +346,37 @@ impl TreeSolve<'_, '_> {
                 node.warm = self.lambda.get(k as usize);
             }
             passes
+        }
+    }
+
+    /// `true` when a particle other than the root is immovable.
+    fn pinned_below_root(&self, view: &TreeView) -> bool {
+        view.particle[1..]
+            .iter()
+            .any(|&p| self.inverse_mass[p as usize] <= 0.0)
+    }
+
+    /// One Gauss–Seidel sweep over the tree's sticks, root to leaves (no warm start after it).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn sweep(&self, view: &TreeView, s: &mut [Node]) {
+        for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
+            let k = k as usize;
+            // SAFETY: the stick's particles and multiplier are this task's (caller).
+            unsafe {
+                relax_stick_range(
+                    self.position,
+                    self.inverse_mass,
+                    self.sticks,
+                    self.lambda,
+                    k..k + 1,
+                    self.inv_h2,
+                    false,
+                    false,
+                );
+            }
+            node.warm = 0.0;
         }
     }
 

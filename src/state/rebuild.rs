@@ -456,6 +456,14 @@ impl VerletState {
         if self.solver.tethered.contains(&true) {
             return false;
         }
+        // A tree solved whole is rooted at its one pin: a second one takes it back to lines.
+        let islands = &self.solver.islands;
+        let tree = islands
+            .of_particle(slot)
+            .is_some_and(|k| islands.list[k].tree.is_some());
+        if tree {
+            return false;
+        }
         let organized = self.solver.is_organized();
         let x = self.solver.particles.position[slot as usize];
         let pins = &mut self.solver.pins;
