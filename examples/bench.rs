@@ -22,7 +22,8 @@
 //! running, and prints the coupling's extra cost per step.
 //! `torn` cuts the cloth example's curtain into 100 patches in place and compares its solve
 //! with the intact curtain's, before and after the next topology rebuild (sleeping off).
-//! `--threads N` runs the solver on N threads (`1`: serial; default: every core). `sleeping` lets
+//! `--threads N` runs the solver on N threads (`1`: serial; default: every core);
+//! `--tether-anchors N` sets `VerletConfig::tether_anchors` (scenes with tethers). `sleeping` lets
 //! `--count` ragdolls fall asleep, drops one more among them and compares its cost with that
 //! ragdoll dropped alone.
 
@@ -46,6 +47,7 @@ struct Options {
     iterations: u32,
     substeps: u32,
     threads: Option<usize>,
+    tether_anchors: u32,
 }
 
 fn parse() -> Result<Options, String> {
@@ -60,6 +62,7 @@ fn parse() -> Result<Options, String> {
         iterations: 6,
         substeps: 1,
         threads: None,
+        tether_anchors: VerletConfig::default().tether_anchors,
     };
     while let Some(flag) = args.next() {
         let value = args.next().ok_or(format!("{flag} needs a value"))?;
@@ -75,6 +78,7 @@ fn parse() -> Result<Options, String> {
             "--iterations" => o.iterations = number as u32,
             "--substeps" => o.substeps = number as u32,
             "--threads" => o.threads = Some(number),
+            "--tether-anchors" => o.tether_anchors = number as u32,
             _ => return Err(format!("unknown option {flag}")),
         }
     }
@@ -106,6 +110,7 @@ fn new_app(options: &Options) -> App {
             substeps: options.substeps,
             iterations: options.iterations,
             parallel: options.threads != Some(1),
+            tether_anchors: options.tether_anchors,
             ..VerletConfig::default()
         });
     app

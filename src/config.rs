@@ -44,6 +44,16 @@ pub struct VerletConfig {
     /// direction at the start of the substep) instead of losing it like the position
     /// projection does. On by default; off only for comparisons.
     pub shake: bool,
+    /// How many of its nearest pins (by distance along the sticks) every
+    /// [`Tethered`](crate::Tethered) particle is tethered to; at least one. One, the default,
+    /// suits a cloth or rope hanging from one pin or a row of pins. Set 2 for a cloth hung by
+    /// two corners (or pins far apart): tethered to the nearer corner alone, a particle can
+    /// still swing out towards the other, and the cloth stretches almost as much as untethered
+    /// (see the crate README, "Hard cases": 4.1× → 41 %). A further pin seen within 30° of a
+    /// nearer one gets no tether, and one pulled out of reach of the nearest is ignored, so a
+    /// grabbed cloth still tears where it is pulled; but tears rebuild the tethers, which costs
+    /// more with more anchors. Changing it rebuilds the topology.
+    pub tether_anchors: u32,
 }
 
 /// How the sticks of an island are solved (the crate README, "Solvers", has the measurements).
@@ -124,6 +134,7 @@ impl Default for VerletConfig {
             parallel: true,
             method: SolveMethod::Auto,
             shake: true,
+            tether_anchors: crate::solver::DEFAULT_TETHER_ANCHORS as u32,
         }
     }
 }

@@ -131,9 +131,10 @@ impl Particle {
     }
 }
 
-/// Marks a particle that should get a long-range tether to its nearest pin (Kim et al. 2012),
-/// which removes the stretch of long ropes and curtains at no extra iterations. Tethers are
-/// rebuilt whenever the topology changes, including after a tear.
+/// Marks a particle that should get long-range tethers to its nearest pins (Kim et al. 2012;
+/// [`VerletConfig::tether_anchors`](crate::VerletConfig::tether_anchors) of them, one by
+/// default), which removes the stretch of long ropes and curtains at no extra iterations.
+/// Tethers are rebuilt whenever the topology changes, including after a tear.
 ///
 /// ```
 /// use bevy::prelude::*;

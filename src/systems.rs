@@ -243,6 +243,11 @@ pub(crate) fn prepare(
         state.solver.method = inputs.config.method.core();
         state.dirty = true;
     }
+    let anchors = inputs.config.tether_anchors.max(1) as usize;
+    if state.solver.tethers.anchors != anchors {
+        state.solver.tethers.anchors = anchors;
+        state.dirty = true;
+    }
     // Lines are laid out by a rebuild: an override that picks or dropped a method needs one.
     if state.overrides_changed
         && (!state.solver.island_methods.is_empty()

@@ -270,6 +270,35 @@ fn tethered_wakes_a_sleeping_island() {
     assert!(!is_sleeping(&app, bob));
 }
 
+/// `VerletConfig::tether_anchors` applies from the next step: on a rope pinned at both ends,
+/// every free particle is tethered to the nearer pin by default, to both with 2 (and 0 means
+/// 1).
+#[test]
+fn tether_anchors_apply_from_the_next_step() {
+    let mut app = app();
+    let rope = spawn(&mut app, |c| {
+        RopeBuilder::new(Vec3::ZERO, Vec3::X, 10)
+            .pin_start()
+            .pin_end()
+            .spawn(c)
+    });
+    for &e in &rope.particles {
+        app.world_mut().entity_mut(e).insert(Tethered);
+    }
+    step(&mut app, 1);
+    let tethers = |app: &App| app.world().resource::<VerletState>().solver.tethers.len();
+    let free = rope.particles.len() - 2;
+    assert_eq!(tethers(&app), free);
+    for (anchors, expected) in [(2, 2 * free), (0, free), (3, 2 * free), (1, free)] {
+        app.world_mut()
+            .resource_mut::<VerletConfig>()
+            .tether_anchors = anchors;
+        step(&mut app, 1);
+        assert_eq!(tethers(&app), expected, "{anchors} anchors");
+    }
+    check_consistency(&mut app).unwrap();
+}
+
 /// Adds 1 mm to every stick's rest length each step (a winch).
 fn winch(mut sticks: Query<&mut Stick>) {
     for mut stick in &mut sticks {

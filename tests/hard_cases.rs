@@ -153,18 +153,28 @@ fn two_hundred_link_chain_settles_with_bounded_stretch() {
 /// and the two corner links carry 10 t. Measured in colour order (the plugin's order for a
 /// cloth this size): energy never above its start; largest link stretch 9.6× while falling and
 /// 5.2× hanging; a small residual flutter (KE up to 6 J in the last 2 s, 0.17 % of the fall's
-/// peak of 34 kJ). Tethers: stretch 4.9× / 4.1× (the corner tethers' geodesic lengths follow
-/// the grid, up to √2 × the straight distance), KE ≤ 0.3 J. (In the builder's row order, before
-/// colour batches: 14.9× / 7–9×, flutter 15 % of the peak; tethers 5.6× / 4.7×, 0.4 %.) It stays
-/// bounded, finite and pinned; it needs far more substeps to hang unstretched.
+/// peak of 34 kJ). (In the builder's row order, before colour batches: 14.9× / 7–9×, flutter
+/// 15 % of the peak.) It stays bounded, finite and pinned; it needs far more substeps to hang
+/// unstretched.
+///
+/// Tethers to the nearer corner (the default `tether_anchors: 1`): 4.9× / 4.1× — a particle
+/// bound to one corner can still swing out towards the other. To both corners
+/// (`tether_anchors: 2`): 81 % / 41 %, KE ≤ 0.5 J in the last 2 s. The
+/// stretch left is where the tethers leave room: the top row is exactly as long as the span
+/// between the corners, so only stretch lets it sag, and a tether bounds only the distance to
+/// its pin. (Not asserted: with rigid shear sticks too, `.shear(0.0)`, 26 % / 17 % with two
+/// anchors but a flutter of up to 3 % of the fall's peak KE; with one anchor 1.6× / 1.4×.)
 #[test]
 fn hundred_by_hundred_cloth_on_two_corners_stays_bounded() {
-    for (tethers, bound_fall, bound_hang, bound_ke) in
-        [(false, 12.0, 7.0, 0.01), (true, 6.0, 5.0, 0.001)]
-    {
+    for (tethers, anchors, bound_fall, bound_hang, bound_ke) in [
+        (false, 2, 12.0, 7.0, 0.01),
+        (true, 1, 6.0, 5.0, 0.001),
+        (true, 2, 1.0, 0.5, 0.001),
+    ] {
         let mut app = app();
         app.insert_resource(VerletConfig {
             damping: 1.0,
+            tether_anchors: anchors,
             ..default()
         });
         let cloth = spawn(&mut app, |c| {
@@ -196,7 +206,7 @@ fn hundred_by_hundred_cloth_on_two_corners_stays_bounded() {
         assert!(all_finite(&mut app));
         let hang_stretch = solver_max_stretch(&app);
         println!(
-            "100×100 cloth, tethers {tethers}: energy rise {:.2e} J, stretch {max_stretch:.2} falling / {hang_stretch:.2} hanging, KE peak {peak_ke:.3e} J, last 2 s max {late_ke:.3e} J",
+            "100×100 cloth, tethers {tethers} ({anchors} anchors): energy rise {:.2e} J, stretch {max_stretch:.2} falling / {hang_stretch:.2} hanging, KE peak {peak_ke:.3e} J, last 2 s max {late_ke:.3e} J",
             max_energy - start
         );
         assert!(max_energy <= start + 1e-6 * scale, "energy grew");

@@ -1,12 +1,24 @@
 //! Long-range attachments ("tethers", Kim, Chentanez, Müller 2012).
 //!
-//! Each tethered particle gets a one-sided constraint `|x_i − x_pin| ≤ L` to its nearest pinned
-//! particle, where `L` is the geodesic rest distance: the shortest path to the pin along sticks
-//! that cannot stretch past their rest length (equal and at-most sticks), summed from their rest
-//! lengths. The geodesic distance is an upper bound of any distance the real, inextensible
-//! structure can reach, so a tether never pulls a particle the sticks would allow to go there; it
-//! only removes the stretch that a budget-limited Gauss–Seidel solve leaves along long chains, at
-//! one projection per particle and no extra iterations. Only the free particle moves.
+//! Each tethered particle gets one-sided constraints `|x_i − x_pin| ≤ L` to its nearest pinned
+//! particles ([`Tethers::anchors`] of them, one by default), where `L` is the geodesic rest
+//! distance: the shortest path to the pin along sticks that cannot stretch past their rest
+//! length (equal and at-most sticks), summed from their rest lengths. The geodesic distance is an
+//! upper bound of any distance the real, inextensible structure can reach, so a tether never
+//! pulls a particle the sticks would allow to go there; it only removes the stretch that a budget-limited Gauss–Seidel solve leaves along long chains, at
+//! one projection per tether and no extra iterations. Only the free particle moves.
+//!
+//! Why more than one pin: a tether only bounds the distance to its anchor, so a particle between
+//! two pins (a cloth hung by its two top corners) tethered to the nearer one alone may still
+//! swing out towards the other side — the far corner's load then stretches the cloth as if there
+//! were no tethers. Bounded by both, it sits in the lens where the two spheres meet. Measured
+//! (`tests/hard_cases.rs`, 100 × 100 cloth hung by its two top corners, 8 × 1): see the crate
+//! README. The nearest `k` pins of every particle come from one Dijkstra that settles each
+//! (particle, pin) pair at most once and each particle at most `k` times (the k-nearest-facility
+//! search): a pin that is not among a particle's `k` nearest cannot be among the `k` nearest of
+//! the particles beyond it along that path either. A further pin seen within 30° of a nearer
+//! anchor (from where the particle is at the rebuild) gets no tether: along a pinned top row the
+//! next pin adds almost nothing but cost.
 //!
 //! Tethers are derived from the topology: they are rebuilt whenever it changes, and after a
 //! tear, so that a torn piece is not held across the tear.
@@ -35,7 +47,7 @@ use std::ops::Range;
 /// tethers.rebuild(&p, &s, &pins, &[false, true, true]);
 /// assert_eq!(tethers.max_length, vec![1.0, 2.0]);
 /// ```
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Tethers {
     /// Tethered (free) particle (read with [`Tethers::particle`]).
     pub(crate) particle: Vec<u32>,
@@ -43,17 +55,58 @@ pub struct Tethers {
     pub(crate) anchor: Vec<u32>,
     /// Largest allowed distance.
     pub max_length: Vec<f64>,
-    // Scratch for the rebuild (kept to avoid reallocating).
-    distance: Vec<f64>,
-    source: Vec<u32>,
+    /// How many of its nearest pins each tethered particle is tethered to (at least one;
+    /// applied by the next [`Tethers::rebuild`]). Default 1; 2 for a cloth hung by two corners.
+    pub anchors: usize,
+    // Scratch for the rebuild (kept to avoid reallocating): per particle, up to `anchors`
+    // (pin, geodesic distance) labels in order of distance, and the Dijkstra queue.
+    labels: Vec<(u32, f64)>,
+    heap: BinaryHeap<Item>,
     adjacency_start: Vec<u32>,
     adjacency: Vec<(u32, f64)>,
     /// A stamp that changes with every change of `particle` or `anchor`.
     pub(crate) stamp: u64,
 }
 
-#[derive(PartialEq)]
-struct Item(f64, u32);
+impl Default for Tethers {
+    fn default() -> Self {
+        Self {
+            particle: Vec::new(),
+            anchor: Vec::new(),
+            max_length: Vec::new(),
+            anchors: DEFAULT_TETHER_ANCHORS,
+            labels: Vec::new(),
+            heap: BinaryHeap::new(),
+            adjacency_start: Vec::new(),
+            adjacency: Vec::new(),
+            stamp: 0,
+        }
+    }
+}
+
+/// Pins per tethered particle unless [`Tethers::anchors`] says otherwise.
+///
+/// ```
+/// use bevy_verlet_physics::solver::{Tethers, DEFAULT_TETHER_ANCHORS};
+/// assert_eq!(Tethers::default().anchors, DEFAULT_TETHER_ANCHORS);
+/// ```
+pub const DEFAULT_TETHER_ANCHORS: usize = 1;
+
+/// `true` when pins `a` and `b` are seen from `x` within 30° of each other: a tether to the
+/// farther one then adds little to the nearer one's (the next pin along a pinned top row), so it
+/// is not made.
+fn same_side(x: DVec3, a: DVec3, b: DVec3) -> bool {
+    let (to_a, to_b) = (a - x, b - x);
+    let scale = to_a.length() * to_b.length();
+    scale > 0.0 && to_a.dot(to_b) > REDUNDANT_COSINE * scale
+}
+
+/// cos 30°: see [`same_side`].
+const REDUNDANT_COSINE: f64 = 0.866_025_403_784_438_6;
+
+/// A Dijkstra queue entry: distance, particle, the pin it comes from.
+#[derive(Clone, Debug, PartialEq)]
+struct Item(f64, u32, u32);
 impl Eq for Item {}
 impl PartialOrd for Item {
     fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
@@ -62,11 +115,12 @@ impl PartialOrd for Item {
 }
 impl Ord for Item {
     fn cmp(&self, other: &Self) -> Ordering {
-        // Min-heap on distance, ties by index for determinism.
+        // Min-heap on distance, ties by particle then pin for determinism.
         other
             .0
             .total_cmp(&self.0)
             .then_with(|| other.1.cmp(&self.1))
+            .then_with(|| other.2.cmp(&self.2))
     }
 }
 
@@ -109,8 +163,9 @@ impl Tethers {
         self.max_length.clear();
     }
 
-    /// Recomputes the tethers of every particle with `wanted[i] == true` to its geodesically
-    /// nearest pin (multi-source Dijkstra over the non-torn equal and at-most sticks).
+    /// Recomputes the tethers of every particle with `wanted[i] == true` to its
+    /// [`Tethers::anchors`] geodesically nearest pins (Dijkstra over the non-torn equal and
+    /// at-most sticks). A particle's tethers are listed together, nearest pin first.
     pub fn rebuild(
         &mut self,
         particles: &Particles,
@@ -123,7 +178,34 @@ impl Tethers {
         if pins.is_empty() || !wanted.iter().any(|&w| w) {
             return;
         }
-        // Compressed adjacency (CSR) of the sticks that bound distance.
+        self.build_adjacency(sticks, n);
+        let k = self.anchors.max(1);
+        self.find_nearest_pins(pins, n, k);
+        for (i, &wants) in wanted.iter().enumerate().take(n) {
+            if !wants || particles.inverse_mass[i] <= 0.0 {
+                continue;
+            }
+            let first = self.particle.len();
+            for j in 0..k {
+                let (pin, distance) = self.labels[i * k + j];
+                if pin == u32::MAX {
+                    break;
+                }
+                let position = &particles.position;
+                let redundant = self.anchor[first..]
+                    .iter()
+                    .any(|&a| same_side(position[i], position[a as usize], position[pin as usize]));
+                if pin != i as u32 && !redundant {
+                    self.particle.push(i as u32);
+                    self.anchor.push(pin);
+                    self.max_length.push(distance);
+                }
+            }
+        }
+    }
+
+    /// The compressed adjacency (CSR) of the sticks that bound distance.
+    fn build_adjacency(&mut self, sticks: &Sticks, n: usize) {
         self.adjacency_start.clear();
         self.adjacency_start.resize(n + 1, 0);
         let bounds = |i: usize| matches!(sticks.kind[i], StickKind::Equal | StickKind::AtMost);
@@ -151,40 +233,61 @@ impl Tethers {
                 fill[b as usize] += 1;
             }
         }
-        self.distance.clear();
-        self.distance.resize(n, f64::INFINITY);
-        self.source.clear();
-        self.source.resize(n, u32::MAX);
-        let mut heap = BinaryHeap::new();
+    }
+
+    /// Labels every particle with its `k` nearest pins and their geodesic distances, nearest
+    /// first (`labels[i·k ..][.. k]`, unused slots `(u32::MAX, ∞)`). A candidate enters a
+    /// particle's list only if it beats the list's worst entry, so each particle is pushed at
+    /// most a few times per pin that can still matter.
+    fn find_nearest_pins(&mut self, pins: &Pins, n: usize, k: usize) {
+        self.labels.clear();
+        self.labels.resize(n * k, EMPTY_LABEL);
+        self.heap.clear();
         for &p in &pins.particle {
-            self.distance[p as usize] = 0.0;
-            self.source[p as usize] = p;
-            heap.push(Item(0.0, p));
-        }
-        while let Some(Item(d, i)) = heap.pop() {
-            if d > self.distance[i as usize] {
-                continue;
+            if offer(&mut self.labels[p as usize * k..][..k], p, 0.0) {
+                self.heap.push(Item(0.0, p, p));
             }
-            let range = self.adjacency_start[i as usize] as usize
-                ..self.adjacency_start[i as usize + 1] as usize;
+        }
+        while let Some(Item(d, i, pin)) = self.heap.pop() {
+            let node = i as usize;
+            let current = self.labels[node * k..][..k].contains(&(pin, d));
+            if !current {
+                continue; // superseded by a shorter path or by nearer pins
+            }
+            let range =
+                self.adjacency_start[node] as usize..self.adjacency_start[node + 1] as usize;
             for &(j, rest) in &self.adjacency[range] {
+                let list = &mut self.labels[j as usize * k..][..k];
+                if list[0] == (j, 0.0) {
+                    continue; // a pin: paths through it are no shorter than from it
+                }
                 let nd = d + rest;
-                if nd < self.distance[j as usize] {
-                    self.distance[j as usize] = nd;
-                    self.source[j as usize] = self.source[i as usize];
-                    heap.push(Item(nd, j));
+                if offer(list, pin, nd) {
+                    self.heap.push(Item(nd, j, pin));
                 }
             }
         }
-        for (i, &wants) in wanted.iter().enumerate().take(n) {
-            let reachable = self.distance[i].is_finite() && self.source[i] != i as u32;
-            if wants && reachable && particles.inverse_mass[i] > 0.0 {
-                self.particle.push(i as u32);
-                self.anchor.push(self.source[i]);
-                self.max_length.push(self.distance[i]);
-            }
-        }
     }
+}
+
+/// An unused slot of a particle's nearest-pin list.
+const EMPTY_LABEL: (u32, f64) = (u32::MAX, f64::INFINITY);
+
+/// Offers `pin` at `distance` to a particle's nearest-pin list (sorted by distance, distinct
+/// pins): `true` if it entered (as a new pin or a shorter path to a listed one).
+fn offer(list: &mut [(u32, f64)], pin: u32, distance: f64) -> bool {
+    // Strictly shorter only: of pins at equal distance the one that got there first stays.
+    let before = |(_, d): (u32, f64)| distance < d;
+    let from = match list.iter().position(|&(p, _)| p == pin) {
+        Some(i) if list[i].1 <= distance => return false,
+        Some(i) => i, // the old entry goes; everything after it moves up
+        None if !before(list[list.len() - 1]) => return false,
+        None => list.len() - 1, // the worst entry drops out
+    };
+    let to = list[..from].iter().position(|&l| before(l)).unwrap_or(from);
+    list.copy_within(to..from, to + 1);
+    list[to] = (pin, distance);
+    true
 }
 
 /// Projects every tether once: a particle farther than its tether's length from its anchor is
@@ -211,20 +314,133 @@ pub(crate) unsafe fn relax_tether_range(
     tethers: &Tethers,
     range: Range<usize>,
 ) {
+    // The current particle and its first (nearest) tether.
+    let (mut current, mut nearest) = (u32::MAX, range.start);
     for i in range {
-        let (p, a) = (tethers.particle[i] as usize, tethers.anchor[i] as usize);
+        if tethers.particle[i] != current {
+            (current, nearest) = (tethers.particle[i], i);
+        }
+        let (p, a) = (current as usize, tethers.anchor[i] as usize);
         if inverse_mass[p] <= 0.0 {
             continue; // grabbed or pinned since the tethers were built
         }
         let max = tethers.max_length[i];
-        // SAFETY: this task alone accesses the particle and its anchor (caller).
+        // SAFETY: this task alone accesses the particle and its anchors (caller).
         unsafe {
             let anchor = position.get(a);
+            if nearest != i {
+                // A further anchor of the same particle: when the pins have been pulled apart
+                // so far that no point is within reach of both it and the nearest, the nearest
+                // alone holds (two tethers pulling against each other would spread the pull
+                // over the whole cloth instead of letting it tear where it is pulled).
+                let nearer = position.get(tethers.anchor[nearest] as usize);
+                let reach = max + tethers.max_length[nearest];
+                if (anchor - nearer).length_squared() > reach * reach {
+                    continue;
+                }
+            }
             let delta: DVec3 = position.get(p) - anchor;
             let length_squared = delta.length_squared();
             if length_squared > max * max {
                 position.set(p, anchor + delta * (max / length_squared.sqrt()));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A straight chain of `n` particles 1 apart, pinned at the given indices, all tethered.
+    fn chain(n: usize, pinned: &[usize], anchors: usize) -> Tethers {
+        let mut particles = Particles::default();
+        let mut sticks = Sticks::default();
+        let mut pins = Pins::default();
+        for i in 0..n {
+            let x = DVec3::X * i as f64;
+            let w = if pinned.contains(&i) { 0.0 } else { 1.0 };
+            particles.push(x, x, w, 0.0, i as u64);
+            if i > 0 {
+                let ends = [i as u32 - 1, i as u32];
+                sticks.push(ends, 1.0, 0.0, StickKind::Equal, f64::INFINITY, i as u64);
+            }
+        }
+        for &p in pinned {
+            pins.push(p as u32, DVec3::X * p as f64);
+        }
+        let mut tethers = Tethers {
+            anchors,
+            ..Tethers::default()
+        };
+        tethers.rebuild(&particles, &sticks, &pins, &vec![true; n]);
+        tethers
+    }
+
+    fn listed(t: &Tethers) -> Vec<(u32, u32, f64)> {
+        (0..t.len())
+            .map(|i| (t.particle[i], t.anchor[i], t.max_length[i]))
+            .collect()
+    }
+
+    #[test]
+    fn every_particle_is_tethered_to_its_nearest_pins_nearest_first() {
+        // Pins at 0, 4 and 9: particle 2 is 2 from pin 0, 2 from pin 4 (tie: lower pin
+        // first), 7 from pin 9.
+        let two = listed(&chain(10, &[0, 4, 9], 2));
+        let of = |p: u32| two.iter().filter(|t| t.0 == p).copied().collect::<Vec<_>>();
+        assert_eq!(of(2), vec![(2, 0, 2.0), (2, 4, 2.0)]);
+        assert_eq!(of(6), vec![(6, 4, 2.0), (6, 9, 3.0)]);
+        // Through a pin: particle 1's second-nearest pin is 4, at 3 (past pin 0 is nothing).
+        assert_eq!(of(1), vec![(1, 0, 1.0), (1, 4, 3.0)]);
+        // Pins get no tethers; every free particle gets two.
+        assert_eq!(two.len(), 2 * 7);
+        // One anchor: the nearest only.
+        let one = listed(&chain(10, &[0, 4, 9], 1));
+        assert_eq!(one.len(), 7);
+        assert!(one.contains(&(8, 9, 1.0)));
+        // Three: pin 9 is reached through pin 4, but from particle 1 it lies beyond pin 4, in
+        // the same direction: no tether. Every free particle lies between two pins here.
+        let three = listed(&chain(10, &[0, 4, 9], 3));
+        assert!(!three.iter().any(|t| t.0 == 1 && t.1 == 9));
+        assert_eq!(three, two);
+    }
+
+    #[test]
+    fn a_single_pin_gives_one_tether_whatever_the_anchor_count() {
+        assert_eq!(listed(&chain(4, &[0], 2)), listed(&chain(4, &[0], 1)));
+        assert_eq!(chain(4, &[0], 3).len(), 3);
+    }
+
+    #[test]
+    fn pins_pulled_out_of_reach_leave_the_nearest_tether_alone() {
+        let mut particles = Particles::default();
+        let mut sticks = Sticks::default();
+        let mut pins = Pins::default();
+        for i in 0..3 {
+            let x = DVec3::X * i as f64;
+            particles.push(x, x, if i == 1 { 1.0 } else { 0.0 }, 0.0, i);
+        }
+        sticks.push([0, 1], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+        sticks.push([1, 2], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 1);
+        pins.push(0, DVec3::ZERO);
+        pins.push(2, DVec3::X * 2.0);
+        let mut tethers = Tethers {
+            anchors: 2,
+            ..Tethers::default()
+        };
+        tethers.rebuild(&particles, &sticks, &pins, &[false, true, false]);
+        assert_eq!(listed(&tethers), vec![(1, 0, 1.0), (1, 2, 1.0)]);
+        // Within reach of both: both act (the far pin's tether, projected last, holds).
+        particles.position[1] = DVec3::new(1.0, 3.0, 0.0);
+        relax_tethers(&mut particles, &tethers);
+        let x = particles.position[1];
+        assert!((x - DVec3::X * 2.0).length() <= 1.0 + 1e-12, "{x}");
+        assert!(x.x > 1.0, "{x}"); // the nearest tether alone leaves it at x = 0.32
+        // The far pin dragged 5 away: the nearest tether alone pulls the particle back.
+        particles.position[2] = DVec3::X * 5.0;
+        particles.position[1] = DVec3::X * 3.0;
+        relax_tethers(&mut particles, &tethers);
+        assert_eq!(particles.position[1], DVec3::X);
     }
 }
