@@ -45,14 +45,13 @@ pub struct VerletConfig {
     /// projection does. On by default; off only for comparisons.
     pub shake: bool,
     /// How many of its nearest pins (by distance along the sticks) every
-    /// [`Tethered`](crate::Tethered) particle is tethered to; at least one. One, the default,
-    /// suits a cloth or rope hanging from one pin or a row of pins. Set 2 for a cloth hung by
-    /// two corners (or pins far apart): tethered to the nearer corner alone, a particle can
+    /// [`Tethered`](crate::Tethered) particle is tethered to; at least one. Two, the default,
+    /// hold a cloth hung by two corners: tethered to the nearer corner alone, a particle can
     /// still swing out towards the other, and the cloth stretches almost as much as untethered
-    /// (see the crate README, "Hard cases": 4.1× → 41 %). A further pin seen within 30° of a
-    /// nearer one gets no tether, and one pulled out of reach of the nearest is ignored, so a
-    /// grabbed cloth still tears where it is pulled; but tears rebuild the tethers, which costs
-    /// more with more anchors. Changing it rebuilds the topology.
+    /// (see the crate README, "Hard cases": 4.1× with one, 41 % with two). A further pin seen
+    /// within 30° of a nearer one gets no tether (along a pinned top row only the first row
+    /// gets two), and one pulled out of reach of the nearest is ignored, so a grabbed cloth
+    /// still tears where it is pulled. Changing it rebuilds the topology.
     pub tether_anchors: u32,
 }
 

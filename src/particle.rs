@@ -132,7 +132,7 @@ impl Particle {
 }
 
 /// Marks a particle that should get long-range tethers to its nearest pins (Kim et al. 2012;
-/// [`VerletConfig::tether_anchors`](crate::VerletConfig::tether_anchors) of them, one by
+/// [`VerletConfig::tether_anchors`](crate::VerletConfig::tether_anchors) of them, two by
 /// default), which removes the stretch of long ropes and curtains at no extra iterations.
 /// Tethers are rebuilt whenever the topology changes, including after a tear.
 ///

@@ -72,6 +72,7 @@ pub mod colouring;
 pub mod contacts;
 pub mod direct;
 pub mod external;
+pub mod geodesic;
 mod integrate;
 pub mod islands;
 pub mod lines;

@@ -1,7 +1,7 @@
 //! Long-range attachments ("tethers", Kim, Chentanez, Müller 2012).
 //!
 //! Each tethered particle gets one-sided constraints `|x_i − x_pin| ≤ L` to its nearest pinned
-//! particles ([`Tethers::anchors`] of them, one by default), where `L` is the geodesic rest
+//! particles ([`Tethers::anchors`] of them, two by default), where `L` is the geodesic rest
 //! distance: the shortest path to the pin along sticks that cannot stretch past their rest
 //! length (equal and at-most sticks), summed from their rest lengths. The geodesic distance is an
 //! upper bound of any distance the real, inextensible structure can reach, so a tether never
@@ -13,22 +13,19 @@
 //! swing out towards the other side — the far corner's load then stretches the cloth as if there
 //! were no tethers. Bounded by both, it sits in the lens where the two spheres meet. Measured
 //! (`tests/hard_cases.rs`, 100 × 100 cloth hung by its two top corners, 8 × 1): see the crate
-//! README. The nearest `k` pins of every particle come from one Dijkstra that settles each
-//! (particle, pin) pair at most once and each particle at most `k` times (the k-nearest-facility
-//! search): a pin that is not among a particle's `k` nearest cannot be among the `k` nearest of
-//! the particles beyond it along that path either. A further pin seen within 30° of a nearer
-//! anchor (from where the particle is at the rebuild) gets no tether: along a pinned top row the
-//! next pin adds almost nothing but cost.
+//! README. The nearest `k` pins of every particle come from one Dijkstra (see
+//! [`geodesic`](super::geodesic), which also repairs them after tears). A further pin seen
+//! within 30° of a nearer anchor (from where the particle is at the rebuild) gets no tether:
+//! along a pinned top row the next pin adds almost nothing but cost.
 //!
 //! Tethers are derived from the topology: they are rebuilt whenever it changes, and after a
 //! tear, so that a torn piece is not held across the tear.
 
+use super::geodesic::NearestPins;
 use super::islands::next_stamp;
 use super::shared::SharedSlice;
-use super::{Particles, Pins, StickKind, Sticks};
+use super::{Particles, Pins, Sticks};
 use glam::DVec3;
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
 use std::ops::Range;
 
 /// One-sided maximum-distance constraints from particles to pinned anchors.
@@ -56,14 +53,10 @@ pub struct Tethers {
     /// Largest allowed distance.
     pub max_length: Vec<f64>,
     /// How many of its nearest pins each tethered particle is tethered to (at least one;
-    /// applied by the next [`Tethers::rebuild`]). Default 1; 2 for a cloth hung by two corners.
+    /// applied by the next [`Tethers::rebuild`]). Default 2 (see [`DEFAULT_TETHER_ANCHORS`]).
     pub anchors: usize,
-    // Scratch for the rebuild (kept to avoid reallocating): per particle, up to `anchors`
-    // (pin, geodesic distance) labels in order of distance, and the Dijkstra queue.
-    labels: Vec<(u32, f64)>,
-    heap: BinaryHeap<Item>,
-    adjacency_start: Vec<u32>,
-    adjacency: Vec<(u32, f64)>,
+    /// The nearest pins of every particle, kept to repair after tears.
+    search: NearestPins,
     /// A stamp that changes with every change of `particle` or `anchor`.
     pub(crate) stamp: u64,
 }
@@ -75,10 +68,7 @@ impl Default for Tethers {
             anchor: Vec::new(),
             max_length: Vec::new(),
             anchors: DEFAULT_TETHER_ANCHORS,
-            labels: Vec::new(),
-            heap: BinaryHeap::new(),
-            adjacency_start: Vec::new(),
-            adjacency: Vec::new(),
+            search: NearestPins::default(),
             stamp: 0,
         }
     }
@@ -90,38 +80,16 @@ impl Default for Tethers {
 /// use bevy_verlet_physics::solver::{Tethers, DEFAULT_TETHER_ANCHORS};
 /// assert_eq!(Tethers::default().anchors, DEFAULT_TETHER_ANCHORS);
 /// ```
-pub const DEFAULT_TETHER_ANCHORS: usize = 1;
+pub const DEFAULT_TETHER_ANCHORS: usize = 2;
 
 /// `true` when pins `a` and `b` are seen from `x` within 30° of each other: a tether to the
 /// farther one then adds little to the nearer one's (the next pin along a pinned top row), so it
 /// is not made.
 fn same_side(x: DVec3, a: DVec3, b: DVec3) -> bool {
     let (to_a, to_b) = (a - x, b - x);
-    let scale = to_a.length() * to_b.length();
-    scale > 0.0 && to_a.dot(to_b) > REDUNDANT_COSINE * scale
-}
-
-/// cos 30°: see [`same_side`].
-const REDUNDANT_COSINE: f64 = 0.866_025_403_784_438_6;
-
-/// A Dijkstra queue entry: distance, particle, the pin it comes from.
-#[derive(Clone, Debug, PartialEq)]
-struct Item(f64, u32, u32);
-impl Eq for Item {}
-impl PartialOrd for Item {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for Item {
-    fn cmp(&self, other: &Self) -> Ordering {
-        // Min-heap on distance, ties by particle then pin for determinism.
-        other
-            .0
-            .total_cmp(&self.0)
-            .then_with(|| other.1.cmp(&self.1))
-            .then_with(|| other.2.cmp(&self.2))
-    }
+    let dot = to_a.dot(to_b);
+    // cos∠ > cos 30°, squared (no square roots): cos² 30° = 3/4.
+    dot > 0.0 && dot * dot > 0.75 * to_a.length_squared() * to_b.length_squared()
 }
 
 impl Tethers {
@@ -165,7 +133,9 @@ impl Tethers {
 
     /// Recomputes the tethers of every particle with `wanted[i] == true` to its
     /// [`Tethers::anchors`] geodesically nearest pins (Dijkstra over the non-torn equal and
-    /// at-most sticks). A particle's tethers are listed together, nearest pin first.
+    /// at-most sticks; after tears only, the last search is repaired instead: see
+    /// [`geodesic`](super::geodesic)). A particle's tethers are listed together, nearest pin
+    /// first.
     pub fn rebuild(
         &mut self,
         particles: &Particles,
@@ -178,116 +148,26 @@ impl Tethers {
         if pins.is_empty() || !wanted.iter().any(|&w| w) {
             return;
         }
-        self.build_adjacency(sticks, n);
-        let k = self.anchors.max(1);
-        self.find_nearest_pins(pins, n, k);
+        self.search.update(sticks, pins, n, self.anchors.max(1));
+        let position = &particles.position;
         for (i, &wants) in wanted.iter().enumerate().take(n) {
             if !wants || particles.inverse_mass[i] <= 0.0 {
                 continue;
             }
             let first = self.particle.len();
-            for j in 0..k {
-                let (pin, distance) = self.labels[i * k + j];
-                if pin == u32::MAX {
-                    break;
-                }
-                let position = &particles.position;
+            for label in self.search.of(i) {
+                let pin = label.pin;
                 let redundant = self.anchor[first..]
                     .iter()
                     .any(|&a| same_side(position[i], position[a as usize], position[pin as usize]));
                 if pin != i as u32 && !redundant {
                     self.particle.push(i as u32);
                     self.anchor.push(pin);
-                    self.max_length.push(distance);
+                    self.max_length.push(label.distance);
                 }
             }
         }
     }
-
-    /// The compressed adjacency (CSR) of the sticks that bound distance.
-    fn build_adjacency(&mut self, sticks: &Sticks, n: usize) {
-        self.adjacency_start.clear();
-        self.adjacency_start.resize(n + 1, 0);
-        let bounds = |i: usize| matches!(sticks.kind[i], StickKind::Equal | StickKind::AtMost);
-        for i in 0..sticks.len() {
-            if bounds(i) {
-                let [a, b] = sticks.ends[i];
-                self.adjacency_start[a as usize + 1] += 1;
-                self.adjacency_start[b as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            self.adjacency_start[i + 1] += self.adjacency_start[i];
-        }
-        self.adjacency.clear();
-        self.adjacency
-            .resize(self.adjacency_start[n] as usize, (0, 0.0));
-        let mut fill: Vec<u32> = self.adjacency_start[..n].to_vec();
-        for i in 0..sticks.len() {
-            if bounds(i) {
-                let [a, b] = sticks.ends[i];
-                let rest = sticks.rest_length[i];
-                self.adjacency[fill[a as usize] as usize] = (b, rest);
-                fill[a as usize] += 1;
-                self.adjacency[fill[b as usize] as usize] = (a, rest);
-                fill[b as usize] += 1;
-            }
-        }
-    }
-
-    /// Labels every particle with its `k` nearest pins and their geodesic distances, nearest
-    /// first (`labels[i·k ..][.. k]`, unused slots `(u32::MAX, ∞)`). A candidate enters a
-    /// particle's list only if it beats the list's worst entry, so each particle is pushed at
-    /// most a few times per pin that can still matter.
-    fn find_nearest_pins(&mut self, pins: &Pins, n: usize, k: usize) {
-        self.labels.clear();
-        self.labels.resize(n * k, EMPTY_LABEL);
-        self.heap.clear();
-        for &p in &pins.particle {
-            if offer(&mut self.labels[p as usize * k..][..k], p, 0.0) {
-                self.heap.push(Item(0.0, p, p));
-            }
-        }
-        while let Some(Item(d, i, pin)) = self.heap.pop() {
-            let node = i as usize;
-            let current = self.labels[node * k..][..k].contains(&(pin, d));
-            if !current {
-                continue; // superseded by a shorter path or by nearer pins
-            }
-            let range =
-                self.adjacency_start[node] as usize..self.adjacency_start[node + 1] as usize;
-            for &(j, rest) in &self.adjacency[range] {
-                let list = &mut self.labels[j as usize * k..][..k];
-                if list[0] == (j, 0.0) {
-                    continue; // a pin: paths through it are no shorter than from it
-                }
-                let nd = d + rest;
-                if offer(list, pin, nd) {
-                    self.heap.push(Item(nd, j, pin));
-                }
-            }
-        }
-    }
-}
-
-/// An unused slot of a particle's nearest-pin list.
-const EMPTY_LABEL: (u32, f64) = (u32::MAX, f64::INFINITY);
-
-/// Offers `pin` at `distance` to a particle's nearest-pin list (sorted by distance, distinct
-/// pins): `true` if it entered (as a new pin or a shorter path to a listed one).
-fn offer(list: &mut [(u32, f64)], pin: u32, distance: f64) -> bool {
-    // Strictly shorter only: of pins at equal distance the one that got there first stays.
-    let before = |(_, d): (u32, f64)| distance < d;
-    let from = match list.iter().position(|&(p, _)| p == pin) {
-        Some(i) if list[i].1 <= distance => return false,
-        Some(i) => i, // the old entry goes; everything after it moves up
-        None if !before(list[list.len() - 1]) => return false,
-        None => list.len() - 1, // the worst entry drops out
-    };
-    let to = list[..from].iter().position(|&l| before(l)).unwrap_or(from);
-    list.copy_within(to..from, to + 1);
-    list[to] = (pin, distance);
-    true
 }
 
 /// Projects every tether once: a particle farther than its tether's length from its anchor is
@@ -351,6 +231,7 @@ pub(crate) unsafe fn relax_tether_range(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solver::StickKind;
 
     /// A straight chain of `n` particles 1 apart, pinned at the given indices, all tethered.
     fn chain(n: usize, pinned: &[usize], anchors: usize) -> Tethers {
