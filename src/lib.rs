@@ -26,8 +26,8 @@
 //! rendering and builders — which gathers component changes into the core each fixed step and
 //! scatters positions back once.
 //!
-//! With the features `avian2d` / `avian3d` (off by default), [`avian2d`] / [`avian3d`] couple
-//! the particles with the avian physics engine both ways: particles collide with avian
+//! With the features `avian2d` / `avian3d` (off by default), the modules `avian2d` / `avian3d`
+//! couple the particles with the avian physics engine both ways: particles collide with avian
 //! colliders and push dynamic bodies, and particles attached to bodies pull on them.
 #![warn(missing_docs)]
 
