@@ -289,7 +289,8 @@ pub fn tree(commands: &mut Commands, base: Vec3, depth: usize, trunk: f32) -> Co
 pub const CLOTH_3D: (usize, usize, f32) = (40, 40, 0.05);
 
 /// The 3D cloth: [`CLOTH_3D`] particles (2 m square) lying horizontally 1.6 m up, pinned at two
-/// corners, above a sphere of radius 0.5 m on the ground. Returns the cloth.
+/// corners and tethered to both, above a sphere of radius 0.5 m on the ground. Returns the
+/// cloth.
 ///
 /// ```
 /// use bevy::prelude::*;
@@ -319,6 +320,7 @@ pub fn cloth_3d(commands: &mut Commands) -> Composite {
     .axes(Vec3::X, Vec3::Z)
     .pin_top_corners()
     .shear(1e-4)
+    .tethers(true)
     .radius(0.01)
     .spawn(commands)
 }
