@@ -470,15 +470,15 @@ impl TreeSolve<'_, '_> {
     ) -> (u32, bool) {
         // SAFETY: as for `solve` (caller).
         unsafe {
-            let mut error = self.forward(view, s);
+            let mut error = self.residual(view);
             if error > predicted {
                 self.take_back(view, s);
-                error = self.forward(view, s);
+                error = self.residual(view);
             }
             let mut passes = 0;
             loop {
                 if passes > 0 {
-                    error = self.forward(view, s);
+                    error = self.residual(view);
                 }
                 if error <= TOLERANCE {
                     return (passes, true);
@@ -486,6 +486,9 @@ impl TreeSolve<'_, '_> {
                 if passes == budget {
                     return (passes, false);
                 }
+                // (The elimination only when a pass follows: a converged tree costs one
+                // traversal of lengths, not an elimination.)
+                self.forward(view, s);
                 self.backward(view, s);
                 passes += 1;
             }
@@ -525,16 +528,49 @@ impl TreeSolve<'_, '_> {
         }
     }
 
-    /// Leaves to root: every stick reduced to `Δλ_k = a_k·Δx_p + β_k`. Returns the largest
-    /// `|C + α̃λ|/L` of the active sticks.
+    /// The largest `|C + α̃λ|/L` of the active sticks (those [`TreeSolve::forward`] eliminates:
+    /// in the modes that eliminate, every particle but the root can move).
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
-    unsafe fn forward(&self, view: &TreeView, s: &mut [Node]) -> f64 {
+    unsafe fn residual(&self, view: &TreeView) -> f64 {
+        let mut worst: f64 = 0.0;
+        for &k in &view.stick[1..] {
+            let k = k as usize;
+            let [a, b] = self.sticks.ends[k].map(|p| p as usize);
+            // SAFETY: the tree's particles and multipliers are this task's (caller).
+            let (d, lambda) = unsafe {
+                (
+                    self.position.get(b) - self.position.get(a),
+                    self.lambda.get(k),
+                )
+            };
+            let rest = self.sticks.rest_length[k];
+            let c = d.length() - rest;
+            let movable = self.inverse_mass[a] + self.inverse_mass[b] > 0.0;
+            let active = movable
+                && match self.sticks.kind[k] {
+                    StickKind::Equal => true,
+                    StickKind::AtMost => c > 0.0,
+                    StickKind::AtLeast => c < 0.0,
+                    StickKind::Torn => false,
+                };
+            if active {
+                let residual = c + self.sticks.compliance[k] * self.inv_h2 * lambda;
+                worst = worst.max(residual.abs() / rest.max(1e-12));
+            }
+        }
+        worst
+    }
+
+    /// Leaves to root: every stick reduced to `Δλ_k = a_k·Δx_p + β_k`.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn forward(&self, view: &TreeView, s: &mut [Node]) {
         let shake = s[0].mode == LineMode::Shake;
         // (Every other node clears its accumulators once it has used them, below.)
         s[0].clear();
-        let mut worst: f64 = 0.0;
         for t in (1..view.particle.len()).rev() {
             // SAFETY: as for `solve` (caller).
             let row = unsafe { self.row(view, t) };
@@ -549,7 +585,6 @@ impl TreeSolve<'_, '_> {
             }
             s[t].clear();
             let k = row.stick;
-            let rest = self.sticks.rest_length[k].max(1e-12);
             let alpha = self.sticks.compliance[k] * self.inv_h2;
             // SAFETY: as for `solve` (caller).
             let residual = row.c + alpha * unsafe { self.lambda.get(k) };
@@ -563,7 +598,6 @@ impl TreeSolve<'_, '_> {
                 s[t].beta = 0.0;
                 continue;
             }
-            worst = worst.max(residual.abs() / rest);
             s[t].a = n / d;
             s[t].beta = (-residual - n.dot(s[t].v)) / d;
             // Into the parent: A_p −= w_p s_p r aᵀ, g_p += w_p s_p r β (s_p = −s_j).
@@ -574,7 +608,6 @@ impl TreeSolve<'_, '_> {
             s[parent].add_child(pull, a);
             s[parent].load -= pull * beta;
         }
-        worst
     }
 
     /// Root to leaves: `Δλ_k = a_k·Δx_p + β_k`, `Δx_j = u_j Δλ_k + v_j`; λ updated and each
