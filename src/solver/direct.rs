@@ -397,14 +397,14 @@ impl LineSolve<'_, '_> {
         // contract).
         unsafe {
             let mut passes = 0;
-            let mut error = self.forward(line);
+            let mut error = self.residual(line);
             if error > predicted {
                 self.take_back(line);
-                error = self.forward(line);
+                error = self.residual(line);
             }
             loop {
                 if passes > 0 {
-                    error = self.forward(line);
+                    error = self.residual(line);
                 }
                 if error <= TOLERANCE {
                     return (passes, true);
@@ -412,6 +412,9 @@ impl LineSolve<'_, '_> {
                 if passes == budget {
                     return (passes, false);
                 }
+                // (The elimination only when a pass follows: a line its warm start converged
+                // costs one traversal of lengths.)
+                self.forward(line);
                 self.backward(line);
                 passes += 1;
             }
@@ -593,13 +596,48 @@ impl LineSolve<'_, '_> {
         }
     }
 
-    /// Forward traversal: each stick evaluated at the current iterate and its row eliminated
-    /// (Thomas). Returns the largest `|C + α̃λ|/L` of the sticks in the system.
+    /// The largest `|C + α̃λ|/L` of the sticks in the system (the active ones) at the current
+    /// iterate.
     ///
     /// # Safety
     /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`] (every index below is
     /// accessed unchecked).
-    unsafe fn forward(&self, line: &LineRef) -> f64 {
+    unsafe fn residual(&self, line: &LineRef) -> f64 {
+        // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
+        // contract).
+        unsafe {
+            let mut worst: f64 = 0.0;
+            for k in 0..line.sticks.len() {
+                let s = line.s(k);
+                let (p, q) = (line.p(k), line.p(k + 1));
+                let length =
+                    (self.position.get_unchecked(q) - self.position.get_unchecked(p)).length();
+                let rest = self.rest(s);
+                let c = length - rest;
+                let active = self.w(p) + self.w(q) > 0.0
+                    && match self.kind(s) {
+                        StickKind::Equal => true,
+                        StickKind::AtMost => c > 0.0,
+                        StickKind::AtLeast => c < 0.0,
+                        StickKind::Torn => false,
+                    };
+                if active {
+                    let alpha = self.compliance(s) * self.inv_h2;
+                    let residual = c + alpha * self.lambda.get_unchecked(s);
+                    worst = worst.max(residual.abs() / rest.max(1e-12));
+                }
+            }
+            worst
+        }
+    }
+
+    /// Forward traversal: each stick evaluated at the current iterate and its row eliminated
+    /// (Thomas).
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`] (every index below is
+    /// accessed unchecked).
+    unsafe fn forward(&self, line: &LineRef) {
         // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
         // contract).
         unsafe {
@@ -613,7 +651,6 @@ impl LineSolve<'_, '_> {
                 }
             };
             let m = line.sticks.len();
-            let mut worst: f64 = 0.0;
             let (mut upper_prev, mut rhs_prev) = (0.0, 0.0);
             let mut r_prev = DVec3::ZERO;
             let mut row = self.row(line, 0);
@@ -628,7 +665,6 @@ impl LineSolve<'_, '_> {
                     (upper_prev, rhs_prev) = (0.0, 0.0);
                 } else {
                     let s = line.s(k);
-                    let rest = self.rest(s);
                     let wp = self.w(line.p(k));
                     let wq = self.w(line.p(k + 1));
                     let n = row.normal;
@@ -636,7 +672,6 @@ impl LineSolve<'_, '_> {
                     let lambda = self.lambda.get_unchecked(s);
                     // The XPBD residual: a compliant stick is solved when C = −α̃λ, not C = 0.
                     let residual = row.c + alpha * lambda;
-                    worst = worst.max(residual.abs() / rest.max(1e-12));
                     let diagonal = (wp + wq) * n.dot(r) * (1.0 + REGULARISATION) + alpha;
                     // (An inactive neighbour has an eliminated row of zeros and Δλ = 0, so its
                     // coupling drops out by itself.)
@@ -656,7 +691,6 @@ impl LineSolve<'_, '_> {
                     row = next;
                 }
             }
-            worst
         }
     }
 
