@@ -35,8 +35,10 @@
 //! line is below [`TOLERANCE`], at most [`MAX_PASSES`] times.
 //! A hanging chain needs one pass or none; a heavy chain whipping round needs more in the
 //! substeps where its links turn fast (a fixed single pass diverges there: the linearisation
-//! error compounds with the mass ratio). A pass is two traversals of the line: forward (evaluate
-//! `n`, `C` and eliminate, fused) and backward (substitute and move the particles, fused).
+//! error compounds with the mass ratio). Each convergence check is one traversal of lengths;
+//! a pass is two more: forward (evaluate `n`, `C` and eliminate, fused) and backward
+//! (substitute and move the particles, fused). The elimination runs only when a pass follows,
+//! so a line its warm start already converged costs the check alone.
 //!
 //! One-sided sticks use an active set: a rope link is in the system while stretched, a strut
 //! while compressed; torn sticks and sticks between two immovable particles are never in it (a
