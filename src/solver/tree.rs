@@ -316,6 +316,7 @@ impl TreeSolve<'_, '_> {
             parent: &set.parent[tree.nodes.start as usize..tree.nodes.end as usize],
             offset: tree.nodes.start,
         };
+        self.check(&view);
         // SAFETY: this task alone holds the tree's particles and multipliers (caller).
         unsafe {
             let mut predicted = f64::INFINITY;
@@ -347,6 +348,43 @@ impl TreeSolve<'_, '_> {
             }
             passes
         }
+    }
+
+    /// Panics unless every index the passes below read without bounds checks is in bounds:
+    /// node particles, the nodes' sticks and their ends, and parents (each before its child,
+    /// as [`build`]'s breadth-first order makes them). One check per solve instead of one per
+    /// access.
+    fn check(&self, view: &TreeView) {
+        let mirror = self.mirror.map_or(usize::MAX, |mirror| mirror.len());
+        let particles = [
+            self.position.len(),
+            self.previous.len(),
+            self.inverse_mass.len(),
+        ]
+        .into_iter()
+        .fold(mirror, usize::min);
+        let sticks = &self.sticks;
+        let stick_count = [
+            sticks.ends.len(),
+            sticks.rest_length.len(),
+            sticks.compliance.len(),
+            sticks.kind.len(),
+            self.lambda.len(),
+        ]
+        .into_iter()
+        .min()
+        .unwrap_or(0);
+        let nodes_ok = (1..view.particle.len()).all(|t| {
+            let k = view.stick[t] as usize;
+            let parent = view.parent[t].wrapping_sub(view.offset) as usize;
+            k < stick_count
+                && sticks.ends[k].iter().all(|&p| (p as usize) < particles)
+                && parent < t
+        });
+        assert!(
+            view.particle.iter().all(|&p| (p as usize) < particles) && nodes_ok,
+            "a tree's nodes are out of bounds"
+        );
     }
 
     /// `true` when a particle other than the root is immovable.
@@ -500,25 +538,35 @@ impl TreeSolve<'_, '_> {
     /// # Safety
     /// As for [`TreeSolve::solve`].
     unsafe fn row(&self, view: &TreeView, t: usize) -> Row {
-        let k = view.stick[t] as usize;
-        let [a, b] = self.sticks.ends[k].map(|p| p as usize);
-        // SAFETY: the tree's particles are this task's (caller).
-        let d = unsafe { self.position.get(b) - self.position.get(a) };
+        // SAFETY: `t` is a node of the view and every index below passed `check` (caller).
+        let (k, [a, b], d) = unsafe {
+            let k = *view.stick.get_unchecked(t) as usize;
+            let [a, b] = self.sticks.ends.get_unchecked(k).map(|p| p as usize);
+            (
+                k,
+                [a, b],
+                self.position.get_unchecked(b) - self.position.get_unchecked(a),
+            )
+        };
         let (normal, length) = unit_and_length(d, k);
-        let c = length - self.sticks.rest_length[k];
-        let movable = self.inverse_mass[a] + self.inverse_mass[b] > 0.0;
+        // SAFETY: as above.
+        let (rest, kind, movable, node) = unsafe {
+            (
+                *self.sticks.rest_length.get_unchecked(k),
+                *self.sticks.kind.get_unchecked(k),
+                self.inverse_mass.get_unchecked(a) + self.inverse_mass.get_unchecked(b) > 0.0,
+                *view.particle.get_unchecked(t),
+            )
+        };
+        let c = length - rest;
         let active = movable
-            && match self.sticks.kind[k] {
+            && match kind {
                 StickKind::Equal => true,
                 StickKind::AtMost => c > 0.0,
                 StickKind::AtLeast => c < 0.0,
                 StickKind::Torn => false,
             };
-        let sign = if b as u32 == view.particle[t] {
-            1.0
-        } else {
-            -1.0
-        };
+        let sign = if b as u32 == node { 1.0 } else { -1.0 };
         Row {
             stick: k,
             sign,
@@ -572,41 +620,49 @@ impl TreeSolve<'_, '_> {
         // (Every other node clears its accumulators once it has used them, below.)
         s[0].clear();
         for t in (1..view.particle.len()).rev() {
-            // SAFETY: as for `solve` (caller).
-            let row = unsafe { self.row(view, t) };
-            let r = if shake { s[t].start } else { row.normal };
-            s[t].direction = r;
-            let w = self.inverse_mass[view.particle[t] as usize];
-            if w > 0.0 {
-                let node = &mut s[t];
-                (node.u, node.v) = node.solve_pair(r * (w * row.sign), node.load);
-            } else {
-                (s[t].u, s[t].v) = (DVec3::ZERO, DVec3::ZERO);
+            // SAFETY: the tree's particles and multipliers are this task's, `t` and its parent
+            // (< t) are nodes of `s` (as long as the view), and every index passed `check`
+            // (caller).
+            unsafe {
+                let row = self.row(view, t);
+                let (earlier, from_t) = s.split_at_mut_unchecked(t);
+                let node = from_t.get_unchecked_mut(0);
+                let r = if shake { node.start } else { row.normal };
+                node.direction = r;
+                let w = *self
+                    .inverse_mass
+                    .get_unchecked(*view.particle.get_unchecked(t) as usize);
+                (node.u, node.v) = if w > 0.0 {
+                    node.solve_pair(r * (w * row.sign), node.load)
+                } else {
+                    (DVec3::ZERO, DVec3::ZERO)
+                };
+                node.clear();
+                let k = row.stick;
+                let alpha = *self.sticks.compliance.get_unchecked(k) * self.inv_h2;
+                let residual = row.c + alpha * self.lambda.get_unchecked(k);
+                let n = row.normal * row.sign;
+                let d = n.dot(node.u) * (1.0 + REGULARISATION) + alpha;
+                // (Under SHAKE the system is not symmetric and a pivot may be negative; zero is
+                // a stick no particle of its subtree can move: an immovable child, which
+                // `build` roots at, or a pin added in place.)
+                if !row.active || d == 0.0 || !d.is_finite() {
+                    node.a = DVec3::ZERO;
+                    node.beta = 0.0;
+                    continue;
+                }
+                node.a = n / d;
+                node.beta = (-residual - n.dot(node.v)) / d;
+                // Into the parent: A_p −= w_p s_p r aᵀ, g_p += w_p s_p r β (s_p = −s_j).
+                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
+                let wp = *self
+                    .inverse_mass
+                    .get_unchecked(*view.particle.get_unchecked(parent) as usize);
+                let pull = r * (wp * row.sign);
+                let parent = earlier.get_unchecked_mut(parent);
+                parent.add_child(pull, node.a);
+                parent.load -= pull * node.beta;
             }
-            s[t].clear();
-            let k = row.stick;
-            let alpha = self.sticks.compliance[k] * self.inv_h2;
-            // SAFETY: as for `solve` (caller).
-            let residual = row.c + alpha * unsafe { self.lambda.get(k) };
-            let n = row.normal * row.sign;
-            let d = n.dot(s[t].u) * (1.0 + REGULARISATION) + alpha;
-            // (Under SHAKE the system is not symmetric and a pivot may be negative; zero is a
-            // stick no particle of its subtree can move: an immovable child, which `build`
-            // roots at, or a pin added in place.)
-            if !row.active || d == 0.0 || !d.is_finite() {
-                s[t].a = DVec3::ZERO;
-                s[t].beta = 0.0;
-                continue;
-            }
-            s[t].a = n / d;
-            s[t].beta = (-residual - n.dot(s[t].v)) / d;
-            // Into the parent: A_p −= w_p s_p r aᵀ, g_p += w_p s_p r β (s_p = −s_j).
-            let parent = (view.parent[t] - view.offset) as usize;
-            let wp = self.inverse_mass[view.particle[parent] as usize];
-            let pull = r * (wp * row.sign);
-            let (a, beta) = (s[t].a, s[t].beta);
-            s[parent].add_child(pull, a);
-            s[parent].load -= pull * beta;
         }
     }
 
@@ -624,16 +680,20 @@ impl TreeSolve<'_, '_> {
             DVec3::ZERO
         };
         for t in 1..view.particle.len() {
-            let parent = (view.parent[t] - view.offset) as usize;
-            let step = s[t].a.dot(s[parent].dx) + s[t].beta;
-            let step = if step.is_finite() { step } else { 0.0 };
-            let dx = s[t].u * step + s[t].v;
-            s[t].dx = if dx.is_finite() { dx } else { DVec3::ZERO };
-            let k = view.stick[t] as usize;
-            // SAFETY: as for `solve` (caller).
+            // SAFETY: as in `forward` (`t` and its parent are nodes of `s`, every index passed
+            // `check`; the particles and multipliers are this task's).
             unsafe {
-                self.lambda.set(k, self.lambda.get(k) + step);
-                self.move_ends(k, s[t].direction * step);
+                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
+                let parent_dx = s.get_unchecked(parent).dx;
+                let node = s.get_unchecked_mut(t);
+                let step = node.a.dot(parent_dx) + node.beta;
+                let step = if step.is_finite() { step } else { 0.0 };
+                let dx = node.u * step + node.v;
+                node.dx = if dx.is_finite() { dx } else { DVec3::ZERO };
+                let k = *view.stick.get_unchecked(t) as usize;
+                self.lambda
+                    .set_unchecked(k, self.lambda.get_unchecked(k) + step);
+                self.move_ends(k, node.direction * step);
             }
         }
     }
@@ -658,18 +718,21 @@ impl TreeSolve<'_, '_> {
     /// Moves stick `k`'s ends by `r λ` (second end `+w_b`, first end `−w_a`).
     ///
     /// # Safety
-    /// As for [`TreeSolve::solve`].
+    /// As for [`TreeSolve::solve`], and `k` is a stick of a tree that passed
+    /// [`TreeSolve::check`] (read without bounds checks).
     unsafe fn move_ends(&self, k: usize, by: DVec3) {
-        let [a, b] = self.sticks.ends[k].map(|p| p as usize);
+        // SAFETY: `k` is a stick of the tree, which passed `check` with its ends (caller).
+        let [a, b] = unsafe { self.sticks.ends.get_unchecked(k) }.map(|p| p as usize);
         for (p, sign) in [(a, -1.0), (b, 1.0)] {
-            let w = self.inverse_mass[p];
-            if w > 0.0 {
-                let by = by * (w * sign);
-                // SAFETY: as for `solve` (caller).
-                unsafe {
-                    self.position.set(p, self.position.get(p) + by);
+            // SAFETY: as above; the particles are this task's (caller).
+            unsafe {
+                let w = *self.inverse_mass.get_unchecked(p);
+                if w > 0.0 {
+                    let by = by * (w * sign);
+                    self.position
+                        .set_unchecked(p, self.position.get_unchecked(p) + by);
                     if let Some(mirror) = self.mirror {
-                        mirror.set(p, mirror.get(p) + by);
+                        mirror.set_unchecked(p, mirror.get_unchecked(p) + by);
                     }
                 }
             }
