@@ -32,10 +32,10 @@ pub fn extras(results: &Results) -> String {
         }
     }
     out.push_str(
-        "\nTethers bound each particle's distance to its nearest pin. For a chain or cloth \
+        "\nTethers bound each particle's distance to its two nearest pins. For a chain or cloth \
          hanging from pins along one edge that bound is the whole stretch, so it vanishes at \
-         any budget; between two pins (the catenary) it removes only part of the shape error; \
-         it does nothing for swinging dynamics.\n\n",
+         any budget; between two pins (the catenary, a slack rope) it removes only part of the \
+         shape error; it does nothing for swinging dynamics.\n\n",
     );
 
     out.push_str("### XPBD compliance against plain per-pass stiffness\n\n");
