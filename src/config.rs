@@ -45,7 +45,8 @@ pub struct VerletConfig {
     /// projection does. On by default; off only for comparisons.
     pub shake: bool,
     /// How many of its nearest pins (by distance along the sticks) every
-    /// [`Tethered`](crate::Tethered) particle is tethered to; at least one. Two, the default,
+    /// [`Tethered`](crate::Tethered) particle is tethered to, from 1 to 8 (other values are
+    /// clamped, with a warning). Two, the default,
     /// hold a cloth hung by two corners: tethered to the nearer corner alone, a particle can
     /// still swing out towards the other, and the cloth stretches almost as much as untethered
     /// (see the crate README, "Hard cases": 4.1× with one, 41 % with two). A further pin seen

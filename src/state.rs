@@ -36,6 +36,7 @@ pub(crate) enum Problem {
     Angle,
     Gravity,
     Damping,
+    TetherAnchors,
     Diverged,
     #[cfg_attr(not(any(feature = "avian2d", feature = "avian3d")), allow(dead_code))]
     Attachment,

@@ -2,7 +2,7 @@
 //! tear → writeback (scatter).
 
 use crate::executor::with_executor;
-use crate::solver::{GlobalSubstep, Sleep, StepConfig};
+use crate::solver::{GlobalSubstep, MAX_TETHER_ANCHORS, Sleep, StepConfig};
 use crate::state::{ParticleData, Problem, RebuildInputs, VerletState};
 use crate::{
     AngleConstraint, Gravity, IslandOverride, Particle, Pin, Sleeping, StickTorn, Tethered,
@@ -178,6 +178,15 @@ fn warn_config(state: &mut VerletState, config: &VerletConfig, gravity: &Gravity
             format!("VerletConfig damping {c} is NaN or negative; using none")
         });
     }
+    let anchors = config.tether_anchors;
+    if anchors == 0 || anchors as usize > MAX_TETHER_ANCHORS {
+        state.warn(Entity::PLACEHOLDER, Problem::TetherAnchors, || {
+            format!(
+                "VerletConfig tether_anchors {anchors} is outside 1..={MAX_TETHER_ANCHORS}; using {}",
+                anchors.clamp(1, MAX_TETHER_ANCHORS as u32)
+            )
+        });
+    }
 }
 
 /// What `prepare` reads besides the particles.
@@ -243,7 +252,7 @@ pub(crate) fn prepare(
         state.solver.method = inputs.config.method.core();
         state.dirty = true;
     }
-    let anchors = inputs.config.tether_anchors.max(1) as usize;
+    let anchors = (inputs.config.tether_anchors as usize).clamp(1, MAX_TETHER_ANCHORS);
     if state.solver.tethers.anchors != anchors {
         state.solver.tethers.anchors = anchors;
         state.dirty = true;

@@ -1112,6 +1112,7 @@ fn with_previous(position: Vec3, previous: Vec3) -> Particle {
 /// | pin target NaN, or following an entity without `Transform` | the pin holds still |
 /// | `Pin` on an entity without `Particle` | ignored |
 /// | NaN gravity / NaN or negative damping | zero / none |
+/// | `tether_anchors` 0 or above 8 | 1 / 8 |
 /// | empty or NaN collider | ignored |
 #[test]
 fn bad_input_warns_once_and_never_spreads_nan() {
@@ -1208,6 +1209,7 @@ fn bad_input_warns_once_and_never_spreads_nan() {
         app.insert_resource(Gravity(Vec3::new(0.0, nan, 0.0)));
         app.insert_resource(VerletConfig {
             damping: -1.0,
+            tether_anchors: 1_000_000,
             ..default()
         });
         for _ in 0..8 {
@@ -1254,6 +1256,7 @@ fn bad_input_warns_once_and_never_spreads_nan() {
         "Pin on an entity without a Particle",
         "Gravity [0, NaN, 0]",
         "damping -1",
+        "tether_anchors 1000000 is outside 1..=8; using 8",
         "sphere with a non-finite centre",
         "min > max",
         "zero or non-finite normal",

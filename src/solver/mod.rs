@@ -102,7 +102,7 @@ pub use pins::Pins;
 pub use step::GlobalSubstep;
 pub use sticks::{StickKind, Sticks, relax_sticks};
 pub use tear::tear;
-pub use tethers::{DEFAULT_TETHER_ANCHORS, Tethers, relax_tethers};
+pub use tethers::{DEFAULT_TETHER_ANCHORS, MAX_TETHER_ANCHORS, Tethers, relax_tethers};
 pub use tree::{Tree, TreeSet};
 
 use glam::DVec3;

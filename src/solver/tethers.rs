@@ -52,8 +52,8 @@ pub struct Tethers {
     pub(crate) anchor: Vec<u32>,
     /// Largest allowed distance.
     pub max_length: Vec<f64>,
-    /// How many of its nearest pins each tethered particle is tethered to (at least one;
-    /// applied by the next [`Tethers::rebuild`]). Default 2 (see [`DEFAULT_TETHER_ANCHORS`]).
+    /// How many of its nearest pins each tethered particle is tethered to (clamped to
+    /// `1..=`[`MAX_TETHER_ANCHORS`]; applied by the next [`Tethers::rebuild`]). Default 2 (see [`DEFAULT_TETHER_ANCHORS`]).
     pub anchors: usize,
     /// The nearest pins of every particle, kept to repair after tears.
     search: NearestPins,
@@ -73,6 +73,14 @@ impl Default for Tethers {
         }
     }
 }
+
+/// The most pins a particle is tethered to ([`Tethers::anchors`] is clamped to `1..=` this).
+///
+/// ```
+/// use bevy_verlet_physics::solver::{Tethers, MAX_TETHER_ANCHORS};
+/// assert!(Tethers::default().anchors <= MAX_TETHER_ANCHORS);
+/// ```
+pub const MAX_TETHER_ANCHORS: usize = 8;
 
 /// Pins per tethered particle unless [`Tethers::anchors`] says otherwise.
 ///
@@ -148,7 +156,8 @@ impl Tethers {
         if pins.is_empty() || !wanted.iter().any(|&w| w) {
             return;
         }
-        self.search.update(sticks, pins, n, self.anchors.max(1));
+        let k = self.anchors.clamp(1, MAX_TETHER_ANCHORS);
+        self.search.update(sticks, pins, n, k);
         let position = &particles.position;
         for (i, &wants) in wanted.iter().enumerate().take(n) {
             if !wants || particles.inverse_mass[i] <= 0.0 {
