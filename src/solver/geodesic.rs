@@ -182,8 +182,13 @@ impl NearestPins {
         let before = self.key.as_ref().map_or(&[][..], |key| &key.kind[..]);
         let newly_torn =
             |s: &usize| before[*s] != StickKind::Torn && sticks.kind[*s] == StickKind::Torn;
+        let n = self.adjacency_start.len().saturating_sub(1);
         for stick in (0..sticks.len()).filter(newly_torn) {
-            for end in sticks.ends()[stick] {
+            // (A stick whose ends are not particles was never in the graph.)
+            for end in sticks.ends()[stick]
+                .into_iter()
+                .filter(|&p| (p as usize) < n)
+            {
                 for j in 0..self.k {
                     let slot = end as usize * self.k + j;
                     if self.labels[slot].stick == stick as u32
