@@ -64,7 +64,8 @@
 //! ```
 
 use super::direct::{
-    LineMode, MAX_PASSES, SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE,
+    LineMode, MAX_PASSES, SHAKE_CONTRACTION, SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE,
+    TOLERANCE,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -336,12 +337,18 @@ impl TreeSolve<'_, '_> {
                 return 0;
             }
             let shaking = s[0].mode == LineMode::Shake;
-            let budget = if shaking { SHAKE_PASSES } else { MAX_PASSES };
-            let (mut passes, converged) = self.newton(&view, s, budget, predicted);
+            let (budget, contraction) = if shaking {
+                (SHAKE_PASSES, SHAKE_CONTRACTION)
+            } else {
+                (MAX_PASSES, f64::INFINITY)
+            };
+            let (mut passes, converged) = self.newton(&view, s, budget, contraction, predicted);
             if shaking && !converged {
                 self.take_back(&view, s);
                 s[0].mode = LineMode::Project;
-                passes += self.newton(&view, s, MAX_PASSES, f64::INFINITY).0;
+                passes += self
+                    .newton(&view, s, MAX_PASSES, f64::INFINITY, f64::INFINITY)
+                    .0;
             }
             for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
                 node.warm = self.lambda.get(k as usize);
@@ -486,7 +493,7 @@ impl TreeSolve<'_, '_> {
         };
         // SAFETY: as for `solve` (caller).
         unsafe {
-            start.newton(view, s, MAX_PASSES, f64::INFINITY);
+            start.newton(view, s, MAX_PASSES, f64::INFINITY, f64::INFINITY);
             for t in 1..view.particle.len() {
                 self.lambda.set(view.stick[t] as usize, 0.0);
             }
@@ -494,8 +501,9 @@ impl TreeSolve<'_, '_> {
         s[0].mode = mode;
     }
 
-    /// Newton passes until the tree is within [`TOLERANCE`] or `budget` passes are done (a warm
-    /// start that made things worse than `predicted` is taken back first).
+    /// Newton passes until the tree is within [`TOLERANCE`], `budget` passes are done, or a pass
+    /// leaves more than `contraction` × the error before it (a warm start that made things
+    /// worse than `predicted` is taken back first).
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
@@ -504,6 +512,7 @@ impl TreeSolve<'_, '_> {
         view: &TreeView,
         s: &mut [Node],
         budget: u32,
+        contraction: f64,
         predicted: f64,
     ) -> (u32, bool) {
         // SAFETY: as for `solve` (caller).
@@ -514,6 +523,7 @@ impl TreeSolve<'_, '_> {
                 error = self.residual(view);
             }
             let mut passes = 0;
+            let mut before = f64::INFINITY;
             loop {
                 if passes > 0 {
                     error = self.residual(view);
@@ -521,9 +531,10 @@ impl TreeSolve<'_, '_> {
                 if error <= TOLERANCE {
                     return (passes, true);
                 }
-                if passes == budget {
+                if passes == budget || error > contraction * before {
                     return (passes, false);
                 }
+                before = error;
                 // (The elimination only when a pass follows: a converged tree costs one
                 // traversal of lengths, not an elimination.)
                 self.forward(view, s);
