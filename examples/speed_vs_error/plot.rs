@@ -185,10 +185,16 @@ fn draw_header(area: &DrawingArea<BitMapBackend, Shift>) -> Result<(), Box<dyn E
         (20, 12),
     )?;
     let font = (FAMILY, 19).into_font().color(&BLACK);
-    let (x0, y0, width) = (20, 56, 228);
+    // Nine entries per row; the Pareto entry follows the last series.
+    let (x0, y0, width, height, per_row) = (20, 56, 228, 32, 9);
+    let slot = |i: usize| {
+        (
+            x0 + (i % per_row) as i32 * width,
+            y0 + (i / per_row) as i32 * height,
+        )
+    };
     for (i, series) in SERIES.iter().enumerate() {
-        let x = x0 + (i as i32 % 9) * width;
-        let y = y0;
+        let (x, y) = slot(i);
         area.draw(&PathElement::new(
             vec![(x, y + 10), (x + 36, y + 10)],
             series.color.stroke_width(3),
@@ -196,17 +202,17 @@ fn draw_header(area: &DrawingArea<BitMapBackend, Shift>) -> Result<(), Box<dyn E
         area.draw(&Circle::new((x + 18, y + 10), 5, series.color.filled()))?;
         area.draw_text(series.label, &font, (x + 44, y))?;
     }
-    let y = y0 + 32;
+    let (x, y) = slot(SERIES.len().max(per_row));
     area.draw(&PathElement::new(
-        vec![(x0, y + 10), (x0 + 36, y + 10)],
+        vec![(x, y + 10), (x + 36, y + 10)],
         BLACK.stroke_width(2),
     ))?;
-    area.draw(&Circle::new((x0 + 18, y + 10), 9, BLACK.stroke_width(2)))?;
+    area.draw(&Circle::new((x + 18, y + 10), 9, BLACK.stroke_width(2)))?;
     area.draw_text(
         "Pareto front (dashed, ringed points). Labels: default 8x1, accurate 32x1. \
          Errors below 1e-10 (rounding; heavy tip with tethers: exactly 0) are not drawn.",
         &font,
-        (x0 + 44, y),
+        (x + 44, y),
     )?;
     Ok(())
 }
