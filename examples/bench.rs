@@ -22,6 +22,8 @@
 //! running, and prints the coupling's extra cost per step.
 //! `torn` cuts the cloth example's curtain into 100 patches in place and compares its solve
 //! with the intact curtain's, before and after the next topology rebuild (sleeping off).
+//! `--method sweep|lines|hierarchy` forces a [`SolveMethod`]; `--corners 1` hangs the cloth by its
+//! two top corners instead of its top row.
 //! `--threads N` runs the solver on N threads (`1`: serial; default: every core);
 //! `--tether-anchors N` sets `VerletConfig::tether_anchors` (scenes with tethers). `sleeping` lets
 //! `--count` ragdolls fall asleep, drops one more among them and compares its cost with that
@@ -48,6 +50,8 @@ struct Options {
     substeps: u32,
     threads: Option<usize>,
     tether_anchors: u32,
+    method: SolveMethod,
+    corners: bool,
 }
 
 fn parse() -> Result<Options, String> {
@@ -63,9 +67,25 @@ fn parse() -> Result<Options, String> {
         substeps: 1,
         threads: None,
         tether_anchors: VerletConfig::default().tether_anchors,
+        method: SolveMethod::default(),
+        corners: false,
     };
     while let Some(flag) = args.next() {
         let value = args.next().ok_or(format!("{flag} needs a value"))?;
+        if flag == "--method" {
+            o.method = match value.as_str() {
+                "auto" => SolveMethod::Auto,
+                "sweep" => SolveMethod::Sweep,
+                "lines" => SolveMethod::Lines,
+                "hierarchy" => SolveMethod::Hierarchy,
+                _ => {
+                    return Err(format!(
+                        "--method: auto, sweep, lines or hierarchy, not {value}"
+                    ));
+                }
+            };
+            continue;
+        }
         let number = value
             .parse::<usize>()
             .map_err(|_| format!("{flag}: not a number: {value}"))?;
@@ -79,6 +99,7 @@ fn parse() -> Result<Options, String> {
             "--substeps" => o.substeps = number as u32,
             "--threads" => o.threads = Some(number),
             "--tether-anchors" => o.tether_anchors = number as u32,
+            "--corners" => o.corners = number != 0,
             _ => return Err(format!("unknown option {flag}")),
         }
     }
@@ -111,6 +132,7 @@ fn new_app(options: &Options) -> App {
             iterations: options.iterations,
             parallel: options.threads != Some(1),
             tether_anchors: options.tether_anchors,
+            method: options.method,
             ..VerletConfig::default()
         });
     app
@@ -349,7 +371,7 @@ fn main() {
         Err(message) => {
             eprintln!(
                 "{message}\nusage: bench [cloth|rope|ragdolls|sleeping|tearing|torn|avian] [--cols N --rows N | --links N | --count N] \
-                 [--steps N] [--iterations N] [--substeps N] [--threads N]"
+                 [--steps N] [--iterations N] [--substeps N] [--threads N] [--method auto|sweep|lines|hierarchy] [--corners 1]"
             );
             std::process::exit(2);
         }
@@ -377,9 +399,11 @@ fn main() {
     match options.scene.as_str() {
         "cloth" => {
             spawn(&mut app, |c| {
-                ClothBuilder::new(Vec3::ZERO, options.cols, options.rows, 0.1)
-                    .pin_top_row(1)
-                    .spawn(c)
+                let cloth = ClothBuilder::new(Vec3::ZERO, options.cols, options.rows, 0.1);
+                match options.corners {
+                    true => cloth.pin_top_corners().spawn(c),
+                    false => cloth.pin_top_row(1).spawn(c),
+                }
             });
         }
         "rope" => {

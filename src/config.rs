@@ -78,6 +78,12 @@ pub enum SolveMethod {
     /// Every island's sticks covered by lines (paths), each solved directly; lines that share
     /// particles are solved one after the other.
     Lines,
+    /// Sweeps, each after a pass over coarser copies of the island's mesh (hierarchical position
+    /// based dynamics, Müller 2008) that carries a cloth's load to its pins at once: for cloth
+    /// hung by a few pins (a 100 × 100 cloth hung by two corners stretches several times less
+    /// at about 1.4× the sweep's cost). Chains and single sticks are swept plainly; a torn
+    /// island loses its hierarchy until the next rebuild.
+    Hierarchy,
 }
 
 impl SolveMethod {
@@ -88,6 +94,7 @@ impl SolveMethod {
             Self::Auto => Method::Auto,
             Self::Sweep => Method::Sweep,
             Self::Lines => Method::Lines,
+            Self::Hierarchy => Method::Hierarchy,
         }
     }
 }

@@ -150,3 +150,53 @@ fn a_steady_state_step_allocates_nothing() {
     // The counter works: an allocation on this thread is seen.
     assert_eq!(allocations_in(|| drop(vec![1u8; 64])), 1);
 }
+
+/// The same for a cloth solved with a hierarchy (coarse levels before each sweep): the levels'
+/// masses and lengths are re-read every step without allocating.
+#[test]
+fn a_steady_state_step_with_a_hierarchy_allocates_nothing() {
+    use bevy_verlet_physics::solver::Method;
+    let mut solver = Solver::default();
+    let n = 40;
+    for row in 0..n {
+        for column in 0..n {
+            let p = DVec3::new(column as f64 * 0.05, -(row as f64) * 0.05, 0.0);
+            let i = solver.add_particle(p, 1.0);
+            if row == 0 && (column == 0 || column == n - 1) {
+                solver.pin(i, p);
+            }
+        }
+    }
+    let index = |c: usize, r: usize| (r * n + c) as u32;
+    for row in 0..n {
+        for column in 0..n {
+            let mut rigid = |a: u32, b: u32| {
+                let kind = StickKind::Equal;
+                solver
+                    .sticks
+                    .push([a, b], 0.05, 0.0, kind, f64::INFINITY, 0);
+            };
+            if column + 1 < n {
+                rigid(index(column, row), index(column + 1, row));
+            }
+            if row + 1 < n {
+                rigid(index(column, row), index(column, row + 1));
+            }
+        }
+    }
+    solver.method = Method::Hierarchy;
+    solver.organize();
+    assert!(solver.islands.list[0].hierarchy.is_some());
+    let config = StepConfig::default();
+    for _ in 0..10 {
+        solver.step(&config);
+    }
+    let allocations = allocations_in(|| {
+        for _ in 0..100 {
+            solver.step(&config);
+        }
+    });
+    assert!(solver.particles.position.iter().all(|p| p.is_finite()));
+    assert!(solver.islands.hierarchies().list[0].active);
+    assert_eq!(allocations, 0, "allocations in 100 steady-state steps");
+}

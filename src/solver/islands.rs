@@ -107,6 +107,10 @@ pub struct Island {
     /// lines and is a tree with a fork and at most one immovable particle: then it has no lines
     /// and is solved whole (see [`tree`](super::tree)).
     pub tree: Option<u32>,
+    /// Its hierarchy (index into [`HierarchySet::list`](super::HierarchySet::list)) when it is
+    /// solved by [`Method::Hierarchy`] and has a mesh to coarsen (see
+    /// [`hierarchy`](super::hierarchy)).
+    pub hierarchy: Option<u32>,
     /// `true` while the island sleeps (it is neither integrated nor solved).
     pub asleep: bool,
     /// How long every particle has been below the sleep speed, in seconds.
@@ -161,6 +165,8 @@ pub struct Islands {
     pub batches: ReadOnly<Batch>,
     /// The lines of the islands solved by [`Method::Lines`] (read with [`Islands::lines`]).
     pub(crate) lines: LineSet,
+    /// The hierarchies of the islands solved by [`Method::Hierarchy`].
+    pub(crate) hierarchies: super::HierarchySet,
     /// Sizes `[particles, sticks, angles, pins]` the islands were built for; on a mismatch the
     /// solver treats everything as one island in array order.
     pub(crate) signature: [usize; 4],
@@ -238,6 +244,16 @@ impl Islands {
     /// ```
     pub fn lines(&self) -> &LineSet {
         &self.lines
+    }
+
+    /// The hierarchies of the islands solved by [`Method::Hierarchy`].
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Islands;
+    /// assert!(Islands::default().hierarchies().list.is_empty());
+    /// ```
+    pub fn hierarchies(&self) -> &super::HierarchySet {
+        &self.hierarchies
     }
 
     /// Index of the island that holds particle `slot` (islands are contiguous and in order).
@@ -620,10 +636,12 @@ impl Solver {
             line_groups: 0..0,
             loose: 0..0,
             tree: None,
+            hierarchy: None,
             asleep,
             calm_time,
         });
         islands.lines.clear();
+        islands.hierarchies.clear();
         islands.signature = signature;
         self.islands.stamps = self.stamps();
         self.resolve_island_settings();
@@ -645,11 +663,13 @@ impl Solver {
         self.line_builder.incidence.build(&self.sticks, n);
         let islands = &mut self.islands;
         islands.lines.clear();
+        islands.hierarchies.clear();
         for island in &mut islands.list.0 {
             island.method = Method::Auto; // (no override yet)
             island.line_groups = 0..0;
             island.loose = 0..0;
             island.tree = None;
+            island.hierarchy = None;
         }
         for &(particle, method) in &self.island_methods {
             if let Some(k) = islands.of_particle(particle) {
@@ -668,8 +688,18 @@ impl Solver {
             island.method = match method {
                 Method::Auto if chain => Method::Lines,
                 Method::Lines if sticks > 0 => Method::Lines,
+                Method::Hierarchy if sticks > 0 => Method::Hierarchy,
                 _ => Method::Sweep,
             };
+            if island.method == Method::Hierarchy {
+                island.hierarchy = build_hierarchy(
+                    &mut islands.hierarchies,
+                    builder,
+                    (&self.particles, &self.sticks),
+                    island,
+                );
+                continue;
+            }
             if island.method != Method::Lines {
                 continue;
             }
@@ -701,6 +731,9 @@ impl Solver {
             islands.lines.sticks.len(),
             islands.lines.trees.particle.len(),
         );
+        self.hierarchy_scratch
+            .resize(islands.hierarchies.nodes, glam::DVec3::ZERO);
+        islands.hierarchies.refresh(&self.particles, &self.sticks);
     }
 
     /// Sets [`Island::settings`] from [`Solver::island_settings`] (the larger counts win).
@@ -821,6 +854,28 @@ impl Grouping {
             Some(_) => self.island[sticks.ends[i][0] as usize] as usize,
         }
     }
+}
+
+/// Covers a [`Method::Hierarchy`] island with lines (in the builder's own line set: they are
+/// not solved as lines) and builds its hierarchy from them.
+fn build_hierarchy(
+    hierarchies: &mut super::HierarchySet,
+    builder: &mut super::lines::LineBuilder,
+    (particles, sticks): (&super::Particles, &super::Sticks),
+    island: &Island,
+) -> Option<u32> {
+    let set = &mut builder.hierarchy_lines;
+    set.clear();
+    cover(
+        set,
+        &mut builder.cover,
+        particles,
+        sticks,
+        island.sticks.clone(),
+        island.particles.clone(),
+        &builder.incidence,
+    );
+    super::hierarchy::build(hierarchies, set, &set.lines, (particles, sticks))
 }
 
 #[cfg(test)]

@@ -55,6 +55,11 @@ pub enum Method {
     /// Sticks covered by lines, each line solved directly (see [`direct`](super::direct));
     /// sticks no line holds are swept after the lines.
     Lines,
+    /// Sweeps, each after a pass over coarse copies of the island (a hierarchy, see
+    /// [`hierarchy`](super::hierarchy)) that carries a mesh's load to its pins at once: for
+    /// cloth hung by a few pins. Islands without a mesh to coarsen (chains, single sticks) are
+    /// swept plainly. Only chosen when asked for; [`Method::Auto`] does not pick it.
+    Hierarchy,
 }
 
 /// One path of sticks: `particles[k]` and `particles[k + 1]` are the ends of `sticks[k]`.
@@ -344,6 +349,8 @@ pub(crate) struct LineBuilder {
     /// Scratch of [`tree::build`](super::tree::build).
     pub(crate) queue: Vec<u32>,
     pub(crate) seen: Vec<bool>,
+    /// Lines of the island whose hierarchy is being built (see [`hierarchy`](super::hierarchy)).
+    pub(crate) hierarchy_lines: LineSet,
 }
 
 /// The sticks at every particle (compressed rows), for [`cover`].

@@ -73,6 +73,7 @@ pub mod contacts;
 pub mod direct;
 pub mod external;
 pub mod geodesic;
+pub mod hierarchy;
 mod integrate;
 pub mod islands;
 pub mod lines;
@@ -93,6 +94,7 @@ pub use colliders::{Collider, Shape, constrain};
 pub use colouring::Batch;
 pub use contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle};
 pub use external::External;
+pub use hierarchy::{Hierarchy, HierarchySet};
 pub use integrate::{consistent_previous, integrate};
 pub use islands::{Island, IslandSettings, Islands, ReadOnly, Reorder, Sleep};
 pub use lines::{Line, LineSet, Method};
@@ -231,6 +233,8 @@ pub struct Solver {
     pub(crate) line_builder: lines::LineBuilder,
     /// Scratch of the line solves.
     pub(crate) line_scratch: direct::LineScratch,
+    /// Scratch of the hierarchy passes: one slot per node (see [`hierarchy`]).
+    pub(crate) hierarchy_scratch: Vec<DVec3>,
     /// Newton passes of every line solve so far (see [`Solver::line_passes`]).
     pub(crate) line_passes: direct::PassCounter,
     /// Particles whose islands must wake before the next step (see [`Solver::wake`]).

@@ -91,6 +91,7 @@ struct Views<'a> {
     stick_lambda: SharedSlice<'a, f64>,
     angle_lambda: SharedSlice<'a, f64>,
     lines: LineViews<'a>,
+    hierarchy: SharedSlice<'a, DVec3>,
 }
 
 /// The arrays the views borrow, moved out of the solver for a phase (no allocation).
@@ -100,6 +101,7 @@ struct Taken {
     stick_lambda: Vec<f64>,
     angle_lambda: Vec<f64>,
     lines: LineScratch,
+    hierarchy: Vec<DVec3>,
 }
 
 impl Solver {
@@ -148,6 +150,9 @@ impl Solver {
             self.rebuild_tethers();
         }
         self.check_layout();
+        self.islands
+            .hierarchies
+            .refresh(&self.particles, &self.sticks);
         let changed = self.last_config != Some(*config) || self.colliders != self.last_colliders;
         if changed || config.sleep.is_none() {
             self.wake_all();
@@ -285,7 +290,7 @@ impl Solver {
         // Large coloured islands are solved on every thread; the rest in groups.
         let big = |island: &Island, substep: &Substep, batches: &[super::Batch]| {
             threads > 1
-                && island.method != Method::Lines
+                && !matches!(island.method, Method::Lines | Method::Hierarchy)
                 && len(&island.sticks) * substep.iterations as usize
                     >= PARALLEL_MIN_STICK_ITERATIONS
                 && batches[range(&island.batches)]
@@ -470,12 +475,37 @@ impl Solver {
                 if island.method == Method::Lines {
                     self.solve_lines_of(views, islands, island, substep, round == 0);
                 } else {
+                    self.solve_hierarchy_of(views, islands, island);
                     for batch in &islands.batches[range(&island.batches)] {
                         self.relax_sticks_of(views, substep, batch);
                     }
                 }
                 self.relax_rest_of(views, island, substep);
             }
+        }
+    }
+
+    /// An island's pass over its hierarchy's coarse levels, if it has an active one.
+    ///
+    /// # Safety
+    /// No other task accesses the island's particles or its hierarchy's scratch while this runs.
+    unsafe fn solve_hierarchy_of(&self, views: &Views, islands: &super::Islands, island: &Island) {
+        let Some(hierarchy) = island
+            .hierarchy
+            .and_then(|k| islands.hierarchies.list.get(k as usize))
+            .filter(|h| h.active)
+        else {
+            return;
+        };
+        let nodes = range(&hierarchy.scratch);
+        if nodes.end > views.hierarchy.len() {
+            return; // (scratch not sized for it: never after `organize`)
+        }
+        // SAFETY: the hierarchy's particles are the island's and its scratch slots are its own
+        // (disjoint ranges per hierarchy), which this task holds (caller).
+        unsafe {
+            let scratch = views.hierarchy.slice_mut(nodes);
+            hierarchy.solve(&views.position, &self.particles.inverse_mass, scratch);
         }
     }
 
@@ -715,6 +745,7 @@ impl Solver {
                 stick_lambda: std::mem::take(&mut self.sticks.lambda),
                 angle_lambda: std::mem::take(&mut self.angles.lambda),
                 lines: std::mem::take(&mut self.line_scratch),
+                hierarchy: std::mem::take(&mut self.hierarchy_scratch),
             },
             std::mem::take(&mut self.islands),
         )
@@ -726,6 +757,7 @@ impl Solver {
         self.sticks.lambda = taken.stick_lambda;
         self.angles.lambda = taken.angle_lambda;
         self.line_scratch = taken.lines;
+        self.hierarchy_scratch = taken.hierarchy;
         self.islands = islands;
     }
 }
@@ -737,6 +769,7 @@ fn views(taken: &mut Taken) -> Views<'_> {
         stick_lambda: SharedSlice::new(&mut taken.stick_lambda),
         angle_lambda: SharedSlice::new(&mut taken.angle_lambda),
         lines: LineViews::new(&mut taken.lines),
+        hierarchy: SharedSlice::new(&mut taken.hierarchy),
     }
 }
 
