@@ -80,9 +80,10 @@ pub enum SolveMethod {
     Lines,
     /// Sweeps, each after a pass over coarser copies of the island's mesh (hierarchical position
     /// based dynamics, Müller 2008) that carries a cloth's load to its pins at once: for cloth
-    /// hung by a few pins (a 100 × 100 cloth hung by two corners stretches several times less
-    /// at about 1.4× the sweep's cost). Chains and single sticks are swept plainly; a torn
-    /// island loses its hierarchy until the next rebuild.
+    /// hung by a few pins: a 100 × 100 cloth hung by two corners stretches 73 % at 8 × 1
+    /// instead of 957 %, for about twice the sweep's cost (16 swept substeps cost as much and
+    /// leave 304 %). Only rigid sticks carry it; a torn island loses its hierarchy until the
+    /// next rebuild.
     Hierarchy,
 }
 

@@ -23,9 +23,12 @@
 //! lines' coarse particles. Only lines of rigid (`compliance == 0`) `Equal`/`AtMost` sticks
 //! take part. Levels stop at a few particles.
 //!
-//! Measured in the C prototype `report/prototypes/hpbd_grid.c` (100 × 100 cloth, 8 × 1): hung
-//! by two corners 532 % → 68 % largest strain while falling, 427 % → 40 % hanging, at about
-//! 1.4× the sweep's time; hung by its top row 28 % → 10 %.
+//! Measured (100 × 100 cloth hung by two corners, 8 × 1, `tests/hard_cases.rs`): largest strain
+//! 957 % → 73 % while falling, 515 % → 31 % hanging; the step costs 2.1–2.2× the plain sweep's,
+//! as much as 16 swept substeps, which leave 304 % / 143 % (`examples/bench`, see the README).
+//! At 4 substeps the hierarchy fluttered (0.8 % of the fall's peak kinetic energy left after
+//! 10 s), so it is meant for the default 8 and more. The C prototype
+//! `report/prototypes/hpbd_grid.c` has the 2D figures.
 //!
 //! A hierarchy is dropped for the rest of the topology (the island is swept plainly) once one of
 //! its island's sticks is torn, cut, or made soft: coarse sticks across a tear would hold the
@@ -78,7 +81,10 @@ const MAX_LEVELS: usize = 12;
 /// cloth hung by two corners (8 × 1, damping 1/s, 10 s; largest strain falling / hanging,
 /// kinetic energy in the last second against the fall's peak): 1.0 → 61 % / 32 % but a
 /// lasting flutter (63 J, 0.6 % of the peak); 0.85 → 73 % / 29 %, 4.5 J (0.04 %, as the plain
-/// sweep's 6 J); 0.7 → 84 % / 38 %, 5 J; 0.5 → 108 % / 53 %.
+/// sweep's 6 J); 0.7 → 84 % / 38 %, 5 J; 0.5 → 108 % / 53 %. (Measured before the levels'
+/// corrections were summed from the projections rather than read back from the positions —
+/// the same method, rounded differently: 0.85 now gives 73 % / 31 %, at most 15 J in the last
+/// 2 s, see `tests/hard_cases.rs`.)
 pub const COARSE_RELAXATION: f64 = 0.85;
 
 /// Every island's hierarchy (see the [module docs](self)).
@@ -127,6 +133,10 @@ pub struct Level {
 pub struct CoarseStick {
     /// Indices into [`Level::particles`].
     pub ends: [u32; 2],
+    /// The ends' solver slots (copied from [`Level::particles`] for the hot loop).
+    slots: [u32; 2],
+    /// The ends' inverse masses on the level (set with the level's masses).
+    inverse_mass: [f64; 2],
     /// Rest length of the spanned path (`INFINITY`: inactive).
     pub max_length: f64,
     /// Range into the level's spans.
@@ -318,6 +328,8 @@ fn coarse_sticks(paths: &[Path], marks: &Marks, level: &mut Level) -> Vec<Path> 
                 coarse.sticks.push(level.sticks.len() as u32);
                 level.sticks.push(CoarseStick {
                     ends: [marks.coarse_index[previous as usize], index],
+                    slots: [previous, p],
+                    inverse_mass: [0.0; 2],
                     max_length: f64::INFINITY,
                     span,
                 });
@@ -487,6 +499,9 @@ fn refresh_masses(levels: &mut [Level], particles: &Particles, mass: &mut [f64])
                 0.0
             };
         }
+        for stick in &mut level.sticks {
+            stick.inverse_mass = stick.ends.map(|e| level.inverse_mass[e as usize]);
+        }
     }
 }
 
@@ -507,14 +522,12 @@ impl Hierarchy {
     ) {
         for level in self.levels.iter().rev() {
             let coarse = level.particles.len();
-            // SAFETY (all accesses below): the level's particles are the island's (caller).
-            for (node, &p) in nodes.iter_mut().zip(&level.particles) {
-                *node = unsafe { position.get(p as usize) };
-            }
+            // Each coarse particle's node gathers its corrections on this level.
+            nodes[..coarse].fill(DVec3::ZERO);
             for stick in &level.sticks {
-                let [a, b] = stick.ends.map(|e| e as usize);
-                let (wa, wb) = (level.inverse_mass[a], level.inverse_mass[b]);
-                let (pa, pb) = (level.particles[a] as usize, level.particles[b] as usize);
+                let [wa, wb] = stick.inverse_mass;
+                let [pa, pb] = stick.slots.map(|s| s as usize);
+                // SAFETY: the level's particles are the island's (caller).
                 let (xa, xb) = unsafe { (position.get(pa), position.get(pb)) };
                 let d = xb - xa;
                 let length = d.length();
@@ -524,13 +537,14 @@ impl Hierarchy {
                 }
                 let excess = COARSE_RELAXATION * (length - stick.max_length);
                 let correction = d * (excess / (length * (wa + wb)));
+                // SAFETY: as above.
                 unsafe {
                     position.set(pa, xa + correction * wa);
                     position.set(pb, xb - correction * wb);
                 }
-            }
-            for (node, &p) in nodes.iter_mut().zip(&level.particles) {
-                *node = unsafe { position.get(p as usize) } - *node;
+                let [a, b] = stick.ends.map(|e| e as usize);
+                nodes[a] += correction * wa;
+                nodes[b] -= correction * wb;
             }
             for (k, child) in level.children.iter().enumerate() {
                 let mut delta = DVec3::ZERO;
@@ -542,6 +556,7 @@ impl Hierarchy {
                 nodes[coarse + k] = delta;
                 let p = child.particle as usize;
                 if fine_inverse_mass[p] > 0.0 && delta.is_finite() {
+                    // SAFETY: a particle of the island (caller).
                     unsafe { position.set(p, position.get(p) + delta) };
                 }
             }
