@@ -9,11 +9,12 @@ use crate::sweep::{Record, SceneResult};
 use std::fmt::Write;
 
 /// The families compared: `(label, family, tethers)`.
-const FAMILIES: [(&str, Family, bool); 4] = [
+const FAMILIES: [(&str, Family, bool); 5] = [
     ("1 × N", Family::Iterations, false),
     ("S × 1", Family::Substeps(1), false),
     ("S × 1 + tethers", Family::Substeps(1), true),
     ("S × 1 lines", Family::Lines, false),
+    ("S × 1 hierarchy", Family::Hierarchy, false),
 ];
 
 /// The cheapest record of a family whose plotted error is at most `bound`.

@@ -24,7 +24,7 @@ struct Series {
 }
 
 /// Every series any panel may show (a panel draws those it has records for).
-const SERIES: [Series; 10] = [
+const SERIES: [Series; 11] = [
     Series {
         label: "1xN (seed style)",
         family: Family::Iterations,
@@ -59,6 +59,13 @@ const SERIES: [Series; 10] = [
         tethers: false,
         law: Law::Xpbd,
         color: RGBColor(0, 0, 0),
+    },
+    Series {
+        label: "Sx1 hierarchy",
+        family: Family::Hierarchy,
+        tethers: false,
+        law: Law::Xpbd,
+        color: RGBColor(120, 120, 120),
     },
     Series {
         label: "1xN + tethers",

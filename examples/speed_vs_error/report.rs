@@ -138,7 +138,8 @@ Rigid sticks (compliance 0) are what the seeds' stiffness 1.0 maps to, so the ri
 | 8 | chains released from horizontal, no damping, 5 s: 100 links, 1 m, tip 1000× a link; 200 equal links, 2 m | zero stretch | largest link strain at any step |
 
 Settings: 1 × N (the seeds' style), S × 1, S × 2 and S × 4 for N, S in the swept budgets, and
-S × 1 solved by lines (`Method::Lines`, SHAKE on) for S up to 8; with
+S × 1 solved by lines (`Method::Lines`, SHAKE on) for S up to 8, S × 1 with a hierarchy
+(`Method::Hierarchy`: coarse levels before each sweep); with
 tethers (every free particle tethered to its two nearest pins, `Solver::rebuild_tethers`) for the
 chains and the cloth; XPBD (`Stiffness::Seed` conversion) against plain per-projection stiffness
 for the soft materials (plain PBD is emulated by setting `α = w·h²·(1 − k)/k` and never
@@ -151,5 +152,6 @@ thread's CPU time per simulated second measured the same way (Linux
 `CLOCK_THREAD_CPUTIME_ID`; it leaves out time spent waiting for a core), and constraint
 projections per simulated second (sticks + tethers, × S × N × 64). The projection count leaves
 out the per-substep integration, which the times include: at equal projections, S × 1 costs a
-little more time than 1 × N. The plot uses wall time.
+little more time than 1 × N; for a hierarchy it counts the fine sticks only (its coarse levels
+are in the times). The plot uses wall time.
 ";

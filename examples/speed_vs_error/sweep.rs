@@ -44,7 +44,16 @@ impl Plan {
             settings.extend(self.budgets().iter().map(|&s| Setting::substeps(s, m)));
         }
         settings.extend(self.lines());
+        settings.extend(self.hierarchy());
         settings
+    }
+
+    /// S × 1, each sweep after the coarse levels of a hierarchy.
+    pub fn hierarchy(&self) -> Vec<Setting> {
+        self.budgets()
+            .iter()
+            .map(|&s| Setting::hierarchy(s))
+            .collect()
     }
 
     /// S × 1 solved by lines (S = 1 … 8: lines are exact per substep, more substeps only refine
@@ -79,6 +88,7 @@ impl Plan {
         let mut settings: Vec<Setting> = self.budgets().iter().map(|&n| Setting::seed(n)).collect();
         settings.extend(self.budgets().iter().map(|&s| Setting::substeps(s, 1)));
         settings.extend(self.lines());
+        settings.extend(self.hierarchy());
         settings
     }
 

@@ -36,6 +36,9 @@ pub enum Family {
     /// `S` substeps per fixed step, sticks solved by lines (direct solve, SHAKE): the solver's
     /// [`Method::Lines`] for every island.
     Lines,
+    /// `S` substeps per fixed step, one sweep each after a pass over coarse levels: the
+    /// solver's [`Method::Hierarchy`] for every island.
+    Hierarchy,
 }
 
 /// How compliant (soft) sticks are solved. Rigid sticks (compliance 0) are the same under both.
@@ -61,7 +64,8 @@ pub struct Setting {
     pub tethers: bool,
     /// Law of compliant sticks.
     pub law: Law,
-    /// How the solver solves its islands ([`Method::Sweep`] unless [`Family::Lines`]).
+    /// How the solver solves its islands ([`Method::Sweep`] unless [`Family::Lines`] or
+    /// [`Family::Hierarchy`]).
     pub method: Method,
 }
 
@@ -95,6 +99,15 @@ impl Setting {
         Self {
             family: Family::Lines,
             method: Method::Lines,
+            ..Self::substeps(substeps, 1)
+        }
+    }
+
+    /// `substeps` × 1, each sweep after a pass over the island's coarse levels.
+    pub fn hierarchy(substeps: u32) -> Self {
+        Self {
+            family: Family::Hierarchy,
+            method: Method::Hierarchy,
             ..Self::substeps(substeps, 1)
         }
     }
@@ -133,6 +146,9 @@ impl Setting {
         }
         if self.method == Method::Lines {
             label.push_str(" lines");
+        }
+        if self.method == Method::Hierarchy {
+            label.push_str(" hier");
         }
         label
     }
