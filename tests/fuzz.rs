@@ -82,6 +82,7 @@ enum Op {
         damping: f32,
         gravity: Vec3,
         despawn_torn: bool,
+        method: SolveMethod,
     },
 }
 
@@ -280,13 +281,20 @@ fn configure(inputs: Inputs) -> impl Strategy<Value = Op> {
             .boxed(),
         ),
     };
-    (1u32..16, 1u32..4, damping, gravity, any::<bool>()).prop_map(
-        |(substeps, iterations, damping, gravity, despawn_torn)| Op::Configure {
+    let method = prop_oneof![
+        Just(SolveMethod::Auto),
+        Just(SolveMethod::Sweep),
+        Just(SolveMethod::Lines),
+        Just(SolveMethod::Hierarchy),
+    ];
+    (1u32..16, 1u32..4, damping, gravity, any::<bool>(), method).prop_map(
+        |(substeps, iterations, damping, gravity, despawn_torn, method)| Op::Configure {
             substeps,
             iterations,
             damping,
             gravity,
             despawn_torn,
+            method,
         },
     )
 }
@@ -537,6 +545,7 @@ impl Harness {
                 damping,
                 gravity,
                 despawn_torn,
+                method,
             } => {
                 self.app
                     .insert_resource(VerletConfig {
@@ -544,6 +553,7 @@ impl Harness {
                         iterations: *iterations,
                         damping: *damping,
                         despawn_torn_sticks: *despawn_torn,
+                        method: *method,
                         ..default()
                     })
                     .insert_resource(Gravity(*gravity));

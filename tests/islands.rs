@@ -184,3 +184,62 @@ fn island_override_picks_the_solve_method() {
     step(&mut app, 1);
     assert_eq!(methods(&app), [Method::Sweep, Method::Sweep]);
 }
+
+/// `IslandOverride::with_method(SolveMethod::Hierarchy)` gives one cloth coarse levels: hung by
+/// its two top corners (40 × 40, 5 cm, 3 s) it stretches far less than its swept twin (largest
+/// strain measured: 19.4 % against 75.5 %); a stick cut in place drops the hierarchy (the
+/// island is swept again) until the next rebuild gives the cut cloth a new one.
+#[test]
+fn island_override_gives_a_cloth_a_hierarchy() {
+    use bevy_verlet_physics::solver::Method;
+    let mut app = app();
+    app.insert_resource(VerletConfig {
+        damping: 2.0,
+        sleeping: Sleeping::Never,
+        ..default()
+    });
+    let [_, coarse] = [0.0, 3.0].map(|x| {
+        spawn(&mut app, |c| {
+            ClothBuilder::new(Vec3::new(x, 0.0, 0.0), 40, 40, 0.05)
+                .pin_top_corners()
+                .spawn(c)
+        })
+    });
+    let hierarchy = IslandOverride::new(8, 1).with_method(SolveMethod::Hierarchy);
+    app.world_mut()
+        .entity_mut(coarse.particles[0])
+        .insert(hierarchy);
+    let mut worst = [0.0f64; 2];
+    for _ in 0..64 * 3 {
+        step(&mut app, 1);
+        let solver = &app.world().resource::<VerletState>().solver;
+        for (k, island) in solver.islands.list.iter().enumerate() {
+            let sticks = island.sticks.clone();
+            let strain = sticks
+                .map(|i| solver.sticks.strain(i as usize, &solver.particles))
+                .fold(0.0, f64::max);
+            worst[k] = worst[k].max(strain);
+        }
+    }
+    println!(
+        "cloth 40 x 40 on two corners: swept {:.3}, hierarchy {:.3}",
+        worst[0], worst[1]
+    );
+    assert!(worst[1] < worst[0] / 2.0, "{worst:?}");
+    let solver = &app.world().resource::<VerletState>().solver;
+    let island = &solver.islands.list[1];
+    assert_eq!(island.method, Method::Hierarchy);
+    let k = island.hierarchy.expect("the cloth has a hierarchy") as usize;
+    assert!(solver.islands.hierarchies().list[k].active);
+    // Cut one stick in place: the hierarchy is dropped at the next step.
+    let stick = solver.islands.list[1].sticks.start as usize + 100;
+    let torn = app
+        .world_mut()
+        .resource_mut::<VerletState>()
+        .cut_stick(stick);
+    assert!(torn.is_some());
+    step(&mut app, 1);
+    let solver = &app.world().resource::<VerletState>().solver;
+    assert!(!solver.islands.hierarchies().list[k].active);
+    assert!(solver.particles.position.iter().all(|p| p.is_finite()));
+}
