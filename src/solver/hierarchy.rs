@@ -24,7 +24,7 @@
 //! take part. Levels stop at a few particles.
 //!
 //! Measured (100 × 100 cloth hung by two corners, 8 × 1, `tests/hard_cases.rs`): largest strain
-//! 957 % → 73 % while falling, 515 % → 31 % hanging; the step costs 2.1–2.2× the plain sweep's,
+//! 957 % → 73 % while falling, 515 % → 31 % hanging; the step costs 1.9–2.2× the plain sweep's,
 //! as much as 16 swept substeps, which leave 304 % / 143 % (`examples/bench`, see the README).
 //! At 4 substeps the hierarchy fluttered (0.8 % of the fall's peak kinetic energy left after
 //! 10 s), so it is meant for the default 8 and more. The C prototype
@@ -126,7 +126,15 @@ pub struct Level {
     spans: Vec<u32>,
     /// The finer level's particles that are not on this level, in interpolation order.
     pub children: Vec<Child>,
+    /// The order its sticks are projected in: line after line, but up to [`INTERLEAVE`]
+    /// consecutive lines that share no particle take turns, stick by stick — the same result
+    /// (they touch different particles) without each projection waiting for the last one's
+    /// square root.
+    order: Vec<u32>,
 }
+
+/// At most this many disjoint lines take turns in a level's projection order.
+const INTERLEAVE: usize = 4;
 
 /// A coarse stick: it only pulls, when longer than the path it spans.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -250,6 +258,10 @@ struct Marks {
     node: Vec<u32>,
     on_paths: Vec<Vec<(u32, u32)>>,
     touched: Vec<u32>,
+    /// Per particle: the run of interleaved lines that last took it (see [`solve_order`]).
+    run: Vec<u32>,
+    /// Runs started so far (the stamp of [`Marks::run`]).
+    runs: u32,
 }
 
 impl Marks {
@@ -260,6 +272,8 @@ impl Marks {
             node: vec![u32::MAX; n],
             on_paths: vec![Vec::new(); n],
             touched: Vec::new(),
+            run: vec![0; n],
+            runs: 0,
         }
     }
 
@@ -304,6 +318,7 @@ fn coarsen(paths: &[Path], particles: &Particles, marks: &mut Marks) -> Option<(
         return None;
     }
     let next = coarse_sticks(paths, marks, &mut level);
+    level.order = solve_order(&next, marks);
     interpolate(paths, &order, marks, &mut level);
     level.inverse_mass = vec![0.0; level.particles.len()];
     Some((level, next))
@@ -346,6 +361,38 @@ fn coarse_sticks(paths: &[Path], marks: &Marks, level: &mut Level) -> Vec<Path> 
         }
     }
     next
+}
+
+/// The projection order of a level's sticks (see [`Level::order`]): runs of up to
+/// [`INTERLEAVE`] consecutive lines that share no particle, their sticks taken in turn.
+fn solve_order(lines: &[Path], marks: &mut Marks) -> Vec<u32> {
+    let mut order = Vec::with_capacity(lines.iter().map(|l| l.sticks.len()).sum());
+    let mut run: Vec<&Path> = Vec::with_capacity(INTERLEAVE);
+    let flush = |run: &mut Vec<&Path>, order: &mut Vec<u32>| {
+        let longest = run.iter().map(|l| l.sticks.len()).max().unwrap_or(0);
+        for k in 0..longest {
+            order.extend(run.iter().filter_map(|l| l.sticks.get(k)));
+        }
+        run.clear();
+    };
+    for line in lines {
+        let stamp = marks.runs;
+        let disjoint = line
+            .particles
+            .iter()
+            .all(|&p| marks.run[p as usize] != stamp);
+        if run.len() == INTERLEAVE || !disjoint || run.is_empty() {
+            flush(&mut run, &mut order);
+            marks.runs += 1;
+        }
+        let stamp = marks.runs;
+        for &p in &line.particles {
+            marks.run[p as usize] = stamp;
+        }
+        run.push(line);
+    }
+    flush(&mut run, &mut order);
+    order
 }
 
 /// Gives every finer particle not on the level its parents: along each line through it, the
@@ -524,7 +571,8 @@ impl Hierarchy {
             let coarse = level.particles.len();
             // Each coarse particle's node gathers its corrections on this level.
             nodes[..coarse].fill(DVec3::ZERO);
-            for stick in &level.sticks {
+            for &k in &level.order {
+                let stick = &level.sticks[k as usize];
                 let [wa, wb] = stick.inverse_mass;
                 let [pa, pb] = stick.slots.map(|s| s as usize);
                 // SAFETY: the level's particles are the island's (caller).
