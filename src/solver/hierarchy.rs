@@ -97,6 +97,8 @@ pub struct HierarchySet {
     pub(crate) nodes: usize,
     /// Masses per particle while the levels' masses are refreshed.
     mass: Vec<f64>,
+    /// Per-particle scratch of [`build`], kept across islands and rebuilds.
+    marks: Marks,
 }
 
 /// One island's coarse levels, finest first.
@@ -201,7 +203,8 @@ pub(crate) fn build(
             .collect(),
         ..Hierarchy::default()
     };
-    let mut marks = Marks::new(particles.len());
+    let mut marks = std::mem::take(&mut out.marks);
+    marks.ensure(particles.len());
     let mut nodes = 0;
     while hierarchy.levels.len() < MAX_LEVELS {
         let Some((level, next)) = coarsen(&paths, particles, &mut marks) else {
@@ -215,6 +218,8 @@ pub(crate) fn build(
             break;
         }
     }
+    marks.reset();
+    out.marks = marks;
     if hierarchy.levels.is_empty() {
         return None;
     }
@@ -252,6 +257,7 @@ fn first_paths(set: &LineSet, lines: &[Line], sticks: &Sticks) -> Vec<Path> {
 /// Per-particle marks while a level is built: the position of each particle on the level
 /// (`u32::MAX`: not on it), whether an odd position of a line excludes it, and the lines
 /// through it.
+#[derive(Clone, Debug, Default)]
 struct Marks {
     coarse_index: Vec<u32>,
     odd: Vec<bool>,
@@ -265,15 +271,14 @@ struct Marks {
 }
 
 impl Marks {
-    fn new(n: usize) -> Self {
-        Self {
-            coarse_index: vec![u32::MAX; n],
-            odd: vec![false; n],
-            node: vec![u32::MAX; n],
-            on_paths: vec![Vec::new(); n],
-            touched: Vec::new(),
-            run: vec![0; n],
-            runs: 0,
+    /// Sizes the marks for `n` particles (new ones unmarked).
+    fn ensure(&mut self, n: usize) {
+        if self.coarse_index.len() < n {
+            self.coarse_index.resize(n, u32::MAX);
+            self.odd.resize(n, false);
+            self.node.resize(n, u32::MAX);
+            self.on_paths.resize(n, Vec::new());
+            self.run.resize(n, 0);
         }
     }
 
