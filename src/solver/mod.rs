@@ -21,7 +21,8 @@
 //!     integrate   x' = x + (x − x*)·exp(−c·h) + g·h²,  x* = x      (movable particles)
 //!     pins        x = lerp(target_from, target_to, s/S)              (kinematic, w = 0)
 //!     relax × N   sticks: lines solved exactly (chains, trees) or    Gauss–Seidel, in place
-//!                 swept (XPBD); angles (XPBD), tethers (one-sided)
+//!                 swept (XPBD; with a hierarchy: coarse levels
+//!                 first); angles (XPBD), tethers (one-sided)
 //!     constrain   boxes, planes, spheres: project out, restitution and friction
 //! tear            sticks whose post-solve strain exceeds their threshold
 //! ```
@@ -34,6 +35,8 @@
 //! Baraff 1996; Deul et al. 2018), correcting along the sticks' start-of-substep directions
 //! (SHAKE, Ryckaert et al. 1977), which keeps energy. [`Method`] (per solver, per island) picks
 //! lines or sweeps; [`Method::Auto`] picks by the island's shape in [`Solver::organize`].
+//! [`Method::Hierarchy`] (only when asked for) sweeps a mesh after a pass over coarser copies of
+//! it ([`hierarchy`], Müller 2008), which carries a cloth's load to a few pins at once.
 //!
 //! Pinned particles have inverse mass 0 (Jakobsen: "infinite mass"), so constraints move only the
 //! free end and two pins never fight. Everything is `f64`: see [`Particles`] for why.
