@@ -324,12 +324,14 @@ impl TreeSolve<'_, '_> {
             if self.first_round && self.pinned_below_root(&view) {
                 s[0].mode = LineMode::Sweep;
             } else if self.first_round {
+                // (Not right after a fallback, see [`LineMode::FellBack`].)
+                let shake = self.shake && s[0].mode != LineMode::FellBack;
                 let violated;
-                (predicted, violated) = self.begin(&view, s);
+                (predicted, violated) = self.begin(&view, s, shake);
                 if violated > STABILISE_ABOVE {
                     self.take_back(&view, s);
                     self.stabilise_start(&view, s);
-                    predicted = self.begin(&view, s).0;
+                    predicted = self.begin(&view, s, shake).0;
                 }
             }
             if s[0].mode == LineMode::Sweep {
@@ -345,7 +347,7 @@ impl TreeSolve<'_, '_> {
             let (mut passes, converged) = self.newton(&view, s, budget, contraction, predicted);
             if shaking && !converged {
                 self.take_back(&view, s);
-                s[0].mode = LineMode::Project;
+                s[0].mode = LineMode::FellBack;
                 passes += self
                     .newton(&view, s, MAX_PASSES, f64::INFINITY, f64::INFINITY)
                     .0;
@@ -426,13 +428,14 @@ impl TreeSolve<'_, '_> {
     }
 
     /// Start of the substep: start directions, the mode (SHAKE when no stick turns more than
-    /// ≈ 8°), and the warm start along the start directions (SHAKE only). Returns the largest
+    /// ≈ 8°; `shake`: it may be used this substep), and the warm start along the start
+    /// directions (SHAKE only). Returns the largest
     /// `|C|/L` before the warm start, and the largest of a rigid stick at the start positions.
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
-    unsafe fn begin(&self, view: &TreeView, s: &mut [Node]) -> (f64, f64) {
-        let mut shake = self.shake;
+    unsafe fn begin(&self, view: &TreeView, s: &mut [Node], shake: bool) -> (f64, f64) {
+        let mut shake = shake;
         let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
         // SAFETY: the tree's particles and multipliers are this task's (caller).
         unsafe {
