@@ -24,7 +24,7 @@
 //! take part. Levels stop at a few particles.
 //!
 //! Measured (100 × 100 cloth hung by two corners, 8 × 1, `tests/hard_cases.rs`): largest strain
-//! 957 % → 73 % while falling, 515 % → 31 % hanging; the step costs 1.9–2.2× the plain sweep's,
+//! 957 % → 73 % while falling, 515 % → 31 % hanging; the step costs 1.8–2.2× the plain sweep's,
 //! as much as 16 swept substeps, which leave 304 % / 143 % (`examples/bench`, see the README).
 //! At 4 substeps the hierarchy fluttered (0.8 % of the fall's peak kinetic energy left after
 //! 10 s), so it is meant for the default 8 and more. The C prototype
@@ -108,6 +108,9 @@ pub struct Hierarchy {
     pub levels: Vec<Level>,
     /// This hierarchy's slots in the shared node scratch.
     pub(crate) scratch: Range<u32>,
+    /// One more than the largest particle slot of any level or child (the solve checks it
+    /// against the arrays once, then reads them unchecked).
+    slots: usize,
     /// The fine sticks its levels stand on (all must stay rigid and whole).
     fine_sticks: Vec<u32>,
     /// `false` once a fine stick was torn or made soft: the island is swept plainly.
@@ -223,6 +226,16 @@ pub(crate) fn build(
     if hierarchy.levels.is_empty() {
         return None;
     }
+    hierarchy.slots = hierarchy
+        .levels
+        .iter()
+        .flat_map(|level| {
+            let children = level.children.iter().map(|child| &child.particle);
+            level.particles.iter().chain(children)
+        })
+        .map(|&p| p as usize + 1)
+        .max()
+        .unwrap_or(0);
     hierarchy.scratch = out.nodes as u32..(out.nodes + nodes) as u32;
     out.nodes += nodes;
     out.list.push(hierarchy);
@@ -572,45 +585,90 @@ impl Hierarchy {
         fine_inverse_mass: &[f64],
         nodes: &mut [DVec3],
     ) {
+        // One check per pass instead of one per access: every slot below is under `slots`, and
+        // every node index under its level's particles and children (as `build` makes them;
+        // the levels cannot be changed from outside the crate).
+        assert!(
+            self.slots <= position.len().min(fine_inverse_mass.len()),
+            "a hierarchy's particles are out of bounds"
+        );
         for level in self.levels.iter().rev() {
             let coarse = level.particles.len();
-            // Each coarse particle's node gathers its corrections on this level.
+            let nodes = &mut nodes[..coarse + level.children.len()];
             nodes[..coarse].fill(DVec3::ZERO);
-            for &k in &level.order {
-                let stick = &level.sticks[k as usize];
-                let [wa, wb] = stick.inverse_mass;
-                let [pa, pb] = stick.slots.map(|s| s as usize);
-                // SAFETY: the level's particles are the island's (caller).
-                let (xa, xb) = unsafe { (position.get(pa), position.get(pb)) };
-                let d = xb - xa;
-                let length = d.length();
-                // (NaN lengths are skipped: a NaN is never spread from here.)
-                if length.is_nan() || length <= stick.max_length || wa + wb <= 0.0 {
-                    continue;
-                }
-                let excess = COARSE_RELAXATION * (length - stick.max_length);
-                let correction = d * (excess / (length * (wa + wb)));
-                // SAFETY: as above.
-                unsafe {
-                    position.set(pa, xa + correction * wa);
-                    position.set(pb, xb - correction * wb);
-                }
-                let [a, b] = stick.ends.map(|e| e as usize);
-                nodes[a] += correction * wa;
-                nodes[b] -= correction * wb;
+            // SAFETY: slots and node indices in bounds (checked above and by construction);
+            // the island's particles and the scratch are this task's (caller).
+            unsafe {
+                level.project(position, nodes);
+                level.hand_down(position, fine_inverse_mass, nodes);
             }
-            for (k, child) in level.children.iter().enumerate() {
-                let mut delta = DVec3::ZERO;
-                for (&parent, &w) in child.parents.iter().zip(&child.weights) {
-                    if w > 0.0 {
-                        delta += nodes[parent as usize] * w;
-                    }
+        }
+    }
+}
+
+impl Level {
+    /// Projects the level's coarse sticks once (in [`Level::order`]), gathering each coarse
+    /// particle's corrections in its node.
+    ///
+    /// # Safety
+    /// The sticks' slots are under `position.len()`, their ends under `nodes.len()`, and no
+    /// other task accesses these particles.
+    #[inline(always)]
+    unsafe fn project(&self, position: &SharedSlice<DVec3>, nodes: &mut [DVec3]) {
+        for &k in &self.order {
+            let stick = &self.sticks[k as usize];
+            let [wa, wb] = stick.inverse_mass;
+            let [pa, pb] = stick.slots.map(|s| s as usize);
+            // SAFETY: in bounds, this task's (caller).
+            let (xa, xb) = unsafe { (position.get_unchecked(pa), position.get_unchecked(pb)) };
+            let d = xb - xa;
+            let length = d.length();
+            // (NaN lengths are skipped: a NaN is never spread from here.)
+            if length.is_nan() || length <= stick.max_length || wa + wb <= 0.0 {
+                continue;
+            }
+            let excess = COARSE_RELAXATION * (length - stick.max_length);
+            let correction = d * (excess / (length * (wa + wb)));
+            let [a, b] = stick.ends.map(|e| e as usize);
+            // SAFETY: as above.
+            unsafe {
+                position.set_unchecked(pa, xa + correction * wa);
+                position.set_unchecked(pb, xb - correction * wb);
+                *nodes.get_unchecked_mut(a) += correction * wa;
+                *nodes.get_unchecked_mut(b) -= correction * wb;
+            }
+        }
+    }
+
+    /// Interpolates the level's corrections to the finer particles not on it (children in
+    /// order: a child's parents are coarse particles or earlier children).
+    ///
+    /// # Safety
+    /// The children's particles are under `position.len()` and `fine_inverse_mass.len()`, a
+    /// child `k`'s parents under `particles.len() + k`, `nodes` holds the particles' and the
+    /// children's nodes, and no other task accesses these particles.
+    #[inline(always)]
+    unsafe fn hand_down(
+        &self,
+        position: &SharedSlice<DVec3>,
+        fine_inverse_mass: &[f64],
+        nodes: &mut [DVec3],
+    ) {
+        let coarse = self.particles.len();
+        for (k, child) in self.children.iter().enumerate() {
+            let mut delta = DVec3::ZERO;
+            for (&parent, &w) in child.parents.iter().zip(&child.weights) {
+                if w > 0.0 {
+                    // SAFETY: an earlier node (caller).
+                    delta += unsafe { *nodes.get_unchecked(parent as usize) } * w;
                 }
-                nodes[coarse + k] = delta;
-                let p = child.particle as usize;
-                if fine_inverse_mass[p] > 0.0 && delta.is_finite() {
-                    // SAFETY: a particle of the island (caller).
-                    unsafe { position.set(p, position.get(p) + delta) };
+            }
+            let p = child.particle as usize;
+            // SAFETY: in bounds (caller); the child's own node; its particle is this task's.
+            unsafe {
+                *nodes.get_unchecked_mut(coarse + k) = delta;
+                if *fine_inverse_mass.get_unchecked(p) > 0.0 && delta.is_finite() {
+                    position.set_unchecked(p, position.get_unchecked(p) + delta);
                 }
             }
         }
