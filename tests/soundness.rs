@@ -189,6 +189,29 @@ fn islands_of_another_topology_are_not_used() {
     assert_one_serial_island(&threaded);
 }
 
+/// The public lists reassigned alone: a list and batches saved from an earlier build of the same
+/// solver, put back after the topology changed and the solver was organized again, keep the
+/// solver's current stamps — they are refused all the same (each build seals its lists with a
+/// fresh stamp). Found by review: before, they passed for organized and a 2-thread step raced.
+#[test]
+fn lists_saved_from_an_earlier_build_are_not_used() {
+    let mut serial = scene();
+    let (list, batches) = (serial.islands.list.clone(), serial.islands.batches.clone());
+    share_a_particle(&mut serial);
+    serial.organize();
+    assert!(serial.is_organized());
+    serial.islands.list = list;
+    serial.islands.batches = batches;
+    assert!(!serial.is_organized());
+    let mut threaded = serial.clone();
+    for _ in 0..5 {
+        serial.step_with(&config(), &Serial);
+        threaded.step_with(&config(), &ScopedThreads(2));
+    }
+    assert_eq!(bits(&serial), bits(&threaded));
+    assert_one_serial_island(&threaded);
+}
+
 #[test]
 fn a_change_between_substeps_is_noticed_by_the_next_phase() {
     use bevy_verlet_physics::solver::GlobalSubstep;

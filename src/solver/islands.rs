@@ -173,6 +173,26 @@ pub struct Islands {
     /// Stamps of the sticks', angle constraints' and tethers' particle indices the islands
     /// were built for (see [`next_stamp`]); checked like the signature.
     pub(crate) stamps: [u64; 3],
+    /// A fresh stamp per build of the lists, also kept in [`Islands::list`] and
+    /// [`Islands::batches`]: the public fields can be reassigned (a list saved from an earlier
+    /// build put back), which must not pass for organized — the solver trusts the lists' ranges
+    /// and their batches' independence to run jobs in parallel, and their hierarchy indices.
+    pub(crate) build: u64,
+}
+
+impl Islands {
+    /// Marks the lists as built together, now.
+    fn seal(&mut self) {
+        let build = next_stamp();
+        self.build = build;
+        self.list.1 = build;
+        self.batches.1 = build;
+    }
+
+    /// `true` when the lists are the ones built with the rest (see [`Islands::build`]).
+    fn sealed(&self) -> bool {
+        self.build != 0 && self.list.1 == self.build && self.batches.1 == self.build
+    }
 }
 
 /// A list that the solver builds and everyone else only reads: it dereferences to a slice.
@@ -188,12 +208,19 @@ pub struct Islands {
 /// assert_eq!(list[0].particles, 0..1);
 /// assert_eq!(list.iter().count(), 1);
 /// ```
-#[derive(Clone, Debug, PartialEq)]
-pub struct ReadOnly<T>(pub(crate) Vec<T>);
+#[derive(Clone, Debug)]
+pub struct ReadOnly<T>(pub(crate) Vec<T>, pub(crate) u64);
 
 impl<T> Default for ReadOnly<T> {
     fn default() -> Self {
-        Self(Vec::new())
+        Self(Vec::new(), 0)
+    }
+}
+
+/// Compares the items (not which build of the islands they came from).
+impl<T: PartialEq> PartialEq for ReadOnly<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.0 == other.0
     }
 }
 
@@ -328,6 +355,7 @@ impl Solver {
         self.build_lines();
         self.islands.signature = self.signature();
         self.islands.stamps = self.stamps();
+        self.islands.seal();
         Reorder {
             particles: grouping.from,
             sticks: order,
@@ -587,7 +615,8 @@ impl Solver {
 
     /// `true` when [`Solver::islands`] describes the current arrays: built by
     /// [`Solver::organize`] (or the step's one-island fallback) for these sizes and these
-    /// stick, angle and tether indices. The step uses the islands only then — otherwise it
+    /// stick, angle and tether indices, its lists the ones built with the rest (not a list
+    /// saved from an earlier build and put back). The step uses the islands only then — otherwise it
     /// treats everything as one island, which is always safe — so no edit can make it split
     /// work by a stale layout.
     ///
@@ -607,6 +636,7 @@ impl Solver {
     pub fn is_organized(&self) -> bool {
         self.islands.signature == self.signature()
             && self.islands.stamps == self.stamps()
+            && self.islands.sealed()
             && !self.islands.list.is_empty()
     }
 
@@ -644,6 +674,7 @@ impl Solver {
         islands.hierarchies.clear();
         islands.signature = signature;
         self.islands.stamps = self.stamps();
+        self.islands.seal();
         self.resolve_island_settings();
     }
 
