@@ -1,7 +1,7 @@
-//! Hierarchies (`Method::Hierarchy`, Müller 2008): coarse levels before each sweep carry a
-//! cloth's load to its pins at once. On the solver core alone, at the default budget (1/64 s
-//! steps, 8 substeps × 1 round). The 100 × 100 cloth hung by two corners is in
-//! `tests/hard_cases.rs` (957 % → 73 % largest strain while falling).
+//! Hierarchies (`Method::Hierarchy`, after Müller 2008): coarse levels of long-range sticks
+//! before each sweep carry a cloth's load to its pins at once. On the solver core alone, at the
+//! default budget (1/64 s steps, 8 substeps × 1 round). The 100 × 100 cloth hung by two corners
+//! is in `tests/hard_cases.rs` (957 % → 88 % largest strain while falling).
 
 use bevy_verlet_physics::solver::{Method, ScopedThreads, Solver, StepConfig, StickKind};
 use glam::DVec3;
@@ -66,11 +66,13 @@ fn worst_strain(solver: &mut Solver, seconds: usize) -> f64 {
 }
 
 /// A 50 × 50 cloth of 2 cm (1 kg particles, hanging straight down from the start), 3 s, largest
-/// strain. Measured: hung by its top row swept 31.5 %, with a hierarchy 12.3 %; hung by its two
-/// top corners swept 287 %, with a hierarchy 38 %.
+/// strain. Measured: hung by its top row swept 31.5 %, with a hierarchy 16.8 %; hung by its two
+/// top corners swept 287 %, with a hierarchy 41.6 %. (12.3 % and 38 % while the coarse
+/// corrections were interpolated to the particles between, which kept small cloths fluttering:
+/// see `a_cloth_with_a_hierarchy_settles`; the bounds were 0.15 and half the swept strain then.)
 #[test]
 fn a_hierarchy_cuts_a_hanging_cloths_stretch() {
-    for (top_row, bound) in [(true, 0.15), (false, 0.5)] {
+    for (top_row, bound) in [(true, 0.2), (false, 0.5)] {
         let mut swept = cloth(50, 0.02, top_row, Method::Sweep);
         let mut coarse = cloth(50, 0.02, top_row, Method::Hierarchy);
         let island = &coarse.islands.list[0];
@@ -80,7 +82,7 @@ fn a_hierarchy_cuts_a_hanging_cloths_stretch() {
         let (plain, with) = (worst_strain(&mut swept, 3), worst_strain(&mut coarse, 3));
         println!("50 × 50, top row {top_row}: swept {plain:.4}, with a hierarchy {with:.4}");
         assert!(with < bound, "strain {with}");
-        assert!(with < plain / 2.0, "{with} against {plain}");
+        assert!(with < plain * 0.6, "{with} against {plain}");
         assert!(coarse.particles.position.iter().all(|p| p.is_finite()));
     }
 }
@@ -94,27 +96,61 @@ fn a_grids_levels_keep_every_other_line_and_the_pins() {
     // 9 × 9 → 5 × 5 → 3 × 3 (→ 2 × 2 keeps the corners).
     assert_eq!(&sizes[..2], &[25, 9], "{sizes:?}");
     for level in &hierarchy.levels {
-        // The two pinned corners are on every level, immovable there.
-        let pinned: Vec<f64> = level
+        // The two pinned corners are on every level.
+        let pinned = level
             .particles
             .iter()
-            .zip(&level.inverse_mass)
-            .filter(|&(&p, _)| solver.particles.inverse_mass[p as usize] == 0.0)
-            .map(|(_, &w)| w)
-            .collect();
-        assert_eq!(pinned, vec![0.0, 0.0]);
-        // Coarse masses add up to the movable fine mass (weights sum to one).
-        let movable: f64 = level
-            .inverse_mass
-            .iter()
-            .filter(|&&w| w > 0.0)
-            .map(|&w| 1.0 / w)
-            .sum();
-        assert!(movable > 0.0 && movable <= 81.0 + 1e-9, "{movable}");
-        for child in &level.children {
-            let sum: f64 = child.weights.iter().sum();
-            assert!((sum - 1.0).abs() < 1e-12, "weights {:?}", child.weights);
+            .filter(|&&p| solver.particles.inverse_mass[p as usize] == 0.0)
+            .count();
+        assert_eq!(pinned, 2);
+        // A coarse stick may be as long as the rigid path it spans, never less: between two
+        // particles of a grid line, a whole number of fine sticks, at least two on the first
+        // level.
+        for stick in &level.sticks {
+            let [a, b] = stick.ends.map(|e| level.particles[e as usize] as usize);
+            let (pa, pb) = (solver.particles.position[a], solver.particles.position[b]);
+            let spanned = stick.max_length.round();
+            assert!((stick.max_length - spanned).abs() < 1e-12 && spanned >= 1.0);
+            assert!((pa - pb).length() <= stick.max_length + 1e-12);
         }
+    }
+    assert!(
+        hierarchy.levels[0]
+            .sticks
+            .iter()
+            .all(|s| s.max_length >= 1.0)
+    );
+}
+
+/// Cloths hung by two corners settle as swept ones do: kinetic energy in the last 2 s of 10 s
+/// (damping 1/s) against the fall's peak. Measured with a hierarchy: 12 × 12 below 10⁻⁵ of the
+/// peak, 21 × 21 below 10⁻⁵ (swept alike). Before, when the coarse corrections were also
+/// interpolated to the particles between the coarse ones (Müller 2008), these cloths never
+/// settled: 66 % and 47 % of the peak.
+#[test]
+fn a_cloth_with_a_hierarchy_settles() {
+    for n in [12, 21] {
+        let mut solver = cloth(n, 2.0 / n as f64, false, Method::Hierarchy);
+        let h = 1.0 / 64.0 / 8.0;
+        let kinetic = |s: &Solver| -> f64 {
+            let p = &s.particles;
+            let speed = |i: usize| (p.position[i] - p.previous[i]).length() / h;
+            (0..p.len()).map(|i| 0.5 * speed(i).powi(2)).sum()
+        };
+        let (mut peak, mut late): (f64, f64) = (0.0, 0.0);
+        for step in 0..640 {
+            solver.step(&config());
+            let e = kinetic(&solver);
+            peak = peak.max(e);
+            if step >= 640 - 128 {
+                late = late.max(e);
+            }
+        }
+        println!("{n} × {n} on two corners: late kinetic energy {late:.3e} J, peak {peak:.3e} J");
+        assert!(
+            late < 1e-4 * peak,
+            "{n} × {n}: {late} J against a peak of {peak} J"
+        );
     }
 }
 

@@ -1,38 +1,40 @@
-//! Hierarchies: coarse levels that carry a mesh's load across it in one pass (Müller 2008).
+//! Hierarchies: coarse levels of long-range sticks that carry a mesh's load across it in one pass.
 //!
 //! A Gauss–Seidel sweep carries a correction one or two sticks per pass, so a cloth hung by a
 //! few pins stretches until the pins' pull has crossed it. Hierarchical position based dynamics
 //! (Müller 2008, "Hierarchical Position Based Dynamics", VRIPHYS) solves coarser copies of the
-//! mesh first and hands their corrections down: here, before every sweep of an island solved by
-//! [`Method::Hierarchy`](super::Method::Hierarchy),
+//! mesh first. Here, before every sweep of an island solved by
+//! [`Method::Hierarchy`](super::Method::Hierarchy), from the coarsest level to the first, every
+//! level's *coarse sticks* are projected once, then the ordinary sweep runs over the fine
+//! sticks. A coarse stick joins two particles a few fine sticks apart along a line of the mesh
+//! and only pulls: its ends may not be farther apart than the rest length of the path of rigid
+//! sticks between them — a bound the fine sticks imply (a path is never shorter than the
+//! straight line between its ends), so a coarse stick never stiffens bending or shear, and it
+//! is projected with the particles' own masses like any stick: a position-based projection
+//! onto a constraint the mesh already obeys, which takes energy out and never puts it in.
 //!
-//! 1. from the coarsest level to the first: the level's sticks are projected once (taking back
-//!    [`COARSE_RELAXATION`] of their excess length) — they join
-//!    particles a few fine sticks apart and only pull (a coarse stick may not be longer than the
-//!    path of rigid sticks it spans, so it never stiffens bending or shear) — using the level's
-//!    masses (each coarse particle carries the masses of the finer particles interpolated from
-//!    it);
-//! 2. the level's corrections are interpolated down to the finer particles that are not on it
-//!    (linearly along the lines through them);
-//! 3. then the ordinary sweep over the fine sticks.
+//! Müller's method also interpolates each coarse correction to the finer particles between the
+//! coarse ones, using level masses gathered from them. Measured here, that is not safe: it
+//! moves particles along no constraint's gradient (the coarse constraint is evaluated on the
+//! coarse particles alone), and cloths hung by two corners kept fluttering (12 × 12: the
+//! kinetic energy of the last 2 s of 10 s at 66–100 % of the fall's peak; 100 × 100 hung by its
+//! top row: 6.9 %), where sweeps settle (below 0.01 %). Without it (as here) every tested
+//! cloth settles as the sweep does (10 × 10 to 100 × 100; two corners, one corner, the top row:
+//! at most 0.025 % of the peak, as the sweep). The interpolation did spread the load further:
+//! 100 × 100 on two corners, 73 % / 31 % (falling / hanging) with it, 88 % / 47 % without,
+//! 957 % / 515 % swept.
 //!
 //! Levels are built from the island's line cover (see [`lines`](super::lines)): a grid's lines
 //! are its rows and columns. A particle is on the next level when it is pinned or sits at an
 //! even position (or the end) of every line through it — on a grid, every other particle of
 //! every other row and column, the corners included — and the next level's lines are the old
 //! lines' coarse particles. Only lines of rigid (`compliance == 0`) `Equal`/`AtMost` sticks
-//! take part. Levels stop at a few particles.
-//!
-//! Measured (100 × 100 cloth hung by two corners, 8 × 1, `tests/hard_cases.rs`): largest strain
-//! 957 % → 73 % while falling, 515 % → 31 % hanging; the step costs 1.8–2.2× the plain sweep's,
-//! as much as 16 swept substeps, which leave 304 % / 143 % (`examples/bench`, see the README).
-//! At 4 substeps the hierarchy fluttered (0.8 % of the fall's peak kinetic energy left after
-//! 10 s), so it is meant for the default 8 and more. The C prototype
-//! `report/prototypes/hpbd_grid.c` has the 2D figures.
+//! take part. Levels stop at a few particles. On a 100 × 100 grid that is 6 500 coarse sticks
+//! for 19 800 fine ones.
 //!
 //! A hierarchy is dropped for the rest of the topology (the island is swept plainly) once one of
-//! its island's sticks is torn, cut, or made soft: coarse sticks across a tear would hold the
-//! pieces together. Masses and rest lengths are re-read at the start of every step.
+//! the sticks its lines hold is torn, cut, or made soft: coarse sticks across a tear would hold
+//! the pieces together. Masses and rest lengths are re-read at the start of every step.
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
@@ -77,26 +79,17 @@ const COARSEST: usize = 4;
 /// At most this many coarse levels.
 const MAX_LEVELS: usize = 12;
 
-/// Fraction of a coarse stick's excess length one pass takes back. Measured on a 100 × 100
-/// cloth hung by two corners (8 × 1, damping 1/s, 10 s; largest strain falling / hanging,
-/// kinetic energy in the last second against the fall's peak): 1.0 → 61 % / 32 % but a
-/// lasting flutter (63 J, 0.6 % of the peak); 0.85 → 73 % / 29 %, 4.5 J (0.04 %, as the plain
-/// sweep's 6 J); 0.7 → 84 % / 38 %, 5 J; 0.5 → 108 % / 53 %. (Measured before the levels'
-/// corrections were summed from the projections rather than read back from the positions —
-/// the same method, rounded differently: 0.85 now gives 73 % / 31 %, at most 15 J in the last
-/// 2 s, see `tests/hard_cases.rs`.)
-pub const COARSE_RELAXATION: f64 = 0.85;
+/// Fraction of a coarse stick's excess length one pass takes back: all of it, as for a fine
+/// stick. (With the interpolation to finer particles this crate no longer does, 1.0 fluttered
+/// and 0.85 was used; without it, measured on the 100 × 100 cloth hung by two corners, 1.0 gives
+/// 88 % / 47 % and 0.85 gives 91 % / 47 %, both settling.)
+pub const COARSE_RELAXATION: f64 = 1.0;
 
 /// Every island's hierarchy (see the [module docs](self)).
 #[derive(Clone, Debug, Default)]
 pub struct HierarchySet {
     /// The hierarchies, indexed by [`Island::hierarchy`](super::Island::hierarchy).
     pub list: Vec<Hierarchy>,
-    /// Scratch nodes needed by all hierarchies together (one slot per node of the largest
-    /// level of each).
-    pub(crate) nodes: usize,
-    /// Masses per particle while the levels' masses are refreshed.
-    mass: Vec<f64>,
     /// Per-particle scratch of [`build`], kept across islands and rebuilds.
     marks: Marks,
 }
@@ -106,10 +99,8 @@ pub struct HierarchySet {
 pub struct Hierarchy {
     /// The coarse levels: `levels[0]` is one step coarser than the island itself.
     pub levels: Vec<Level>,
-    /// This hierarchy's slots in the shared node scratch.
-    pub(crate) scratch: Range<u32>,
-    /// One more than the largest particle slot of any level or child (the solve checks it
-    /// against the arrays once, then reads them unchecked).
+    /// One more than the largest particle slot of any level (the solve checks it against the
+    /// positions once, then reads them unchecked).
     slots: usize,
     /// The fine sticks its levels stand on (all must stay rigid and whole).
     fine_sticks: Vec<u32>,
@@ -122,15 +113,11 @@ pub struct Hierarchy {
 pub struct Level {
     /// Its particles (solver slots).
     pub particles: Vec<u32>,
-    /// Their inverse masses on this level (`0` for pinned particles).
-    pub inverse_mass: Vec<f64>,
     /// Its sticks: ends are indices into [`Level::particles`].
     pub sticks: Vec<CoarseStick>,
     /// Members of the sticks' spans: sticks of the next finer level (fine stick indices for
     /// the first level).
     spans: Vec<u32>,
-    /// The finer level's particles that are not on this level, in interpolation order.
-    pub children: Vec<Child>,
     /// The order its sticks are projected in: line after line, but up to [`INTERLEAVE`]
     /// consecutive lines that share no particle take turns, stick by stick — the same result
     /// (they touch different particles) without each projection waiting for the last one's
@@ -148,24 +135,12 @@ pub struct CoarseStick {
     pub ends: [u32; 2],
     /// The ends' solver slots (copied from [`Level::particles`] for the hot loop).
     slots: [u32; 2],
-    /// The ends' inverse masses on the level (set with the level's masses).
+    /// The ends' inverse masses (re-read at the start of every step).
     inverse_mass: [f64; 2],
     /// Rest length of the spanned path (`INFINITY`: inactive).
     pub max_length: f64,
     /// Range into the level's spans.
     span: Range<u32>,
-}
-
-/// A finer particle moved with the corrections of up to four nodes: a node `k` is the level's
-/// particle `k` when `k < particles.len()`, else the child `k − particles.len()` (an earlier one).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Child {
-    /// The particle (solver slot).
-    pub particle: u32,
-    /// Its parents' node indices (unused ones have weight 0).
-    pub parents: [u32; 4],
-    /// Interpolation weights (they sum to 1).
-    pub weights: [f64; 4],
 }
 
 /// A line of one level while the next is built: particle slots and the sticks between them
@@ -180,7 +155,6 @@ impl HierarchySet {
     /// Removes every hierarchy, keeping the allocations.
     pub fn clear(&mut self) {
         self.list.clear();
-        self.nodes = 0;
     }
 }
 
@@ -208,12 +182,10 @@ pub(crate) fn build(
     };
     let mut marks = std::mem::take(&mut out.marks);
     marks.ensure(particles.len());
-    let mut nodes = 0;
     while hierarchy.levels.len() < MAX_LEVELS {
         let Some((level, next)) = coarsen(&paths, particles, &mut marks) else {
             break;
         };
-        nodes = nodes.max(level.particles.len() + level.children.len());
         let done = level.particles.len() <= COARSEST || level.sticks.is_empty();
         hierarchy.levels.push(level);
         paths = next;
@@ -229,15 +201,10 @@ pub(crate) fn build(
     hierarchy.slots = hierarchy
         .levels
         .iter()
-        .flat_map(|level| {
-            let children = level.children.iter().map(|child| &child.particle);
-            level.particles.iter().chain(children)
-        })
+        .flat_map(|level| &level.particles)
         .map(|&p| p as usize + 1)
         .max()
         .unwrap_or(0);
-    hierarchy.scratch = out.nodes as u32..(out.nodes + nodes) as u32;
-    out.nodes += nodes;
     out.list.push(hierarchy);
     Some(out.list.len() as u32 - 1)
 }
@@ -274,7 +241,6 @@ fn first_paths(set: &LineSet, lines: &[Line], sticks: &Sticks) -> Vec<Path> {
 struct Marks {
     coarse_index: Vec<u32>,
     odd: Vec<bool>,
-    node: Vec<u32>,
     on_paths: Vec<Vec<(u32, u32)>>,
     touched: Vec<u32>,
     /// Per particle: the run of interleaved lines that last took it (see [`solve_order`]).
@@ -289,7 +255,6 @@ impl Marks {
         if self.coarse_index.len() < n {
             self.coarse_index.resize(n, u32::MAX);
             self.odd.resize(n, false);
-            self.node.resize(n, u32::MAX);
             self.on_paths.resize(n, Vec::new());
             self.run.resize(n, 0);
         }
@@ -300,7 +265,6 @@ impl Marks {
             let p = p as usize;
             self.coarse_index[p] = u32::MAX;
             self.odd[p] = false;
-            self.node[p] = u32::MAX;
             self.on_paths[p].clear();
         }
         self.touched.clear();
@@ -328,7 +292,6 @@ fn coarsen(paths: &[Path], particles: &Particles, marks: &mut Marks) -> Option<(
         let slot = p as usize;
         if particles.inverse_mass[slot] == 0.0 || !marks.odd[slot] {
             marks.coarse_index[slot] = level.particles.len() as u32;
-            marks.node[slot] = level.particles.len() as u32;
             level.particles.push(p);
         }
     }
@@ -337,8 +300,6 @@ fn coarsen(paths: &[Path], particles: &Particles, marks: &mut Marks) -> Option<(
     }
     let next = coarse_sticks(paths, marks, &mut level);
     level.order = solve_order(&next, marks);
-    interpolate(paths, &order, marks, &mut level);
-    level.inverse_mass = vec![0.0; level.particles.len()];
     Some((level, next))
 }
 
@@ -413,86 +374,10 @@ fn solve_order(lines: &[Path], marks: &mut Marks) -> Vec<u32> {
     order
 }
 
-/// Gives every finer particle not on the level its parents: along each line through it, the
-/// nearest particles on both sides that are on the level or were given parents in an earlier
-/// round, weighted by distance along the line (one side only at a line's end).
-fn interpolate(paths: &[Path], order: &[u32], marks: &mut Marks, level: &mut Level) {
-    let coarse = level.particles.len() as u32;
-    let mut pending: Vec<u32> = order
-        .iter()
-        .copied()
-        .filter(|&p| marks.node[p as usize] == u32::MAX)
-        .collect();
-    let mut found = Vec::new();
-    while !pending.is_empty() {
-        found.clear();
-        for &p in &pending {
-            if let Some(child) = parents_of(p, paths, marks) {
-                found.push(child);
-            }
-        }
-        if found.is_empty() {
-            break;
-        }
-        for child in &found {
-            marks.node[child.particle as usize] = coarse + level.children.len() as u32;
-            level.children.push(*child);
-        }
-        pending.retain(|&p| marks.node[p as usize] == u32::MAX);
-    }
-}
-
-/// Parents of `p` from the particles that already have a node (see [`interpolate`]).
-fn parents_of(p: u32, paths: &[Path], marks: &Marks) -> Option<Child> {
-    let mut child = Child {
-        particle: p,
-        ..Child::default()
-    };
-    let mut used = 0;
-    let mut lines = 0;
-    for &(k, position) in &marks.on_paths[p as usize] {
-        if used + 2 > 4 {
-            break;
-        }
-        let path = &paths[k as usize].particles;
-        let at = position as usize;
-        let before = (0..at)
-            .rev()
-            .find(|&i| marks.node[path[i] as usize] != u32::MAX);
-        let after = (at + 1..path.len()).find(|&i| marks.node[path[i] as usize] != u32::MAX);
-        let (a, b) = match (before, after) {
-            (Some(a), Some(b)) => (a, b),
-            (Some(a), None) if at + 1 == path.len() => (a, a),
-            (None, Some(b)) if at == 0 => (b, b),
-            _ => continue,
-        };
-        // Linear along the line, by particle count (the lines' sticks are near-equal here).
-        let t = if a == b {
-            0.0
-        } else {
-            (at - a) as f64 / (b - a) as f64
-        };
-        child.parents[used] = marks.node[path[a] as usize];
-        child.weights[used] = 1.0 - t;
-        child.parents[used + 1] = marks.node[path[b] as usize];
-        child.weights[used + 1] = t;
-        used += 2;
-        lines += 1;
-    }
-    if lines == 0 {
-        return None;
-    }
-    for w in &mut child.weights[..used] {
-        *w /= lines as f64;
-    }
-    Some(child)
-}
-
 impl HierarchySet {
     /// Re-reads masses and rest lengths (start of a step); drops the hierarchies whose fine
     /// sticks are no longer all whole and rigid.
     pub(crate) fn refresh(&mut self, particles: &Particles, sticks: &Sticks) {
-        self.mass.resize(particles.len(), 0.0);
         for hierarchy in &mut self.list {
             if !hierarchy.active {
                 continue;
@@ -506,7 +391,7 @@ impl HierarchySet {
                 continue;
             }
             refresh_lengths(&mut hierarchy.levels, sticks);
-            refresh_masses(&mut hierarchy.levels, particles, &mut self.mass);
+            refresh_masses(&mut hierarchy.levels, particles);
         }
     }
 }
@@ -526,95 +411,43 @@ fn refresh_lengths(levels: &mut [Level], sticks: &Sticks) {
     }
 }
 
-/// Every level's masses: a coarse particle keeps its own and gathers its children's by their
-/// weights (children after their parents, so gathered from the last child back).
-fn refresh_masses(levels: &mut [Level], particles: &Particles, mass: &mut [f64]) {
-    let Some(first) = levels.first() else {
-        return;
-    };
-    let fine = first
-        .particles
-        .iter()
-        .chain(first.children.iter().map(|c| &c.particle));
-    for &p in fine {
-        let w = particles.inverse_mass[p as usize];
-        mass[p as usize] = if w > 0.0 { 1.0 / w } else { f64::INFINITY };
-    }
+/// Every coarse stick's inverse masses: its ends' own.
+fn refresh_masses(levels: &mut [Level], particles: &Particles) {
     for level in levels {
-        let coarse = level.particles.len();
-        for child in level.children.iter().rev() {
-            let m = mass[child.particle as usize];
-            for (&parent, &w) in child.parents.iter().zip(&child.weights) {
-                if w > 0.0 {
-                    let k = parent as usize;
-                    let slot = if k < coarse {
-                        level.particles[k]
-                    } else {
-                        level.children[k - coarse].particle
-                    };
-                    mass[slot as usize] += w * m;
-                }
-            }
-        }
-        for (w, &p) in level.inverse_mass.iter_mut().zip(&level.particles) {
-            let m = mass[p as usize];
-            *w = if m.is_finite() && m > 0.0 {
-                1.0 / m
-            } else {
-                0.0
-            };
-        }
         for stick in &mut level.sticks {
-            stick.inverse_mass = stick.ends.map(|e| level.inverse_mass[e as usize]);
+            stick.inverse_mass = stick.slots.map(|p| particles.inverse_mass[p as usize]);
         }
     }
 }
 
 impl Hierarchy {
-    /// One pass over the coarse levels, coarsest first, each level's corrections handed down to
-    /// the finer particles not on it (see the [module docs](self)). `fine_inverse_mass` keeps
-    /// pinned particles still.
+    /// One pass over the coarse levels, coarsest first (see the [module docs](self)).
     ///
     /// # Safety
-    /// No other task accesses the particles of this hierarchy's island or its scratch slots
-    /// while this runs, and `nodes` is this hierarchy's range of the scratch (at least as long
-    /// as its largest level's nodes).
-    pub(crate) unsafe fn solve(
-        &self,
-        position: &SharedSlice<DVec3>,
-        fine_inverse_mass: &[f64],
-        nodes: &mut [DVec3],
-    ) {
-        // One check per pass instead of one per access: every slot below is under `slots`, and
-        // every node index under its level's particles and children (as `build` makes them;
-        // the levels cannot be changed from outside the crate).
+    /// No other task accesses the particles of this hierarchy's island while this runs.
+    pub(crate) unsafe fn solve(&self, position: &SharedSlice<DVec3>) {
+        // One check per pass instead of one per access: every slot below is under `slots` (as
+        // `build` makes them; the levels cannot be changed from outside the crate).
         assert!(
-            self.slots <= position.len().min(fine_inverse_mass.len()),
+            self.slots <= position.len(),
             "a hierarchy's particles are out of bounds"
         );
         for level in self.levels.iter().rev() {
-            let coarse = level.particles.len();
-            let nodes = &mut nodes[..coarse + level.children.len()];
-            nodes[..coarse].fill(DVec3::ZERO);
-            // SAFETY: slots and node indices in bounds (checked above and by construction);
-            // the island's particles and the scratch are this task's (caller).
-            unsafe {
-                level.project(position, nodes);
-                level.hand_down(position, fine_inverse_mass, nodes);
-            }
+            // SAFETY: slots in bounds (checked above); the island's particles are this task's
+            // (caller).
+            unsafe { level.project(position) };
         }
     }
 }
 
 impl Level {
-    /// Projects the level's coarse sticks once (in [`Level::order`]), gathering each coarse
-    /// particle's corrections in its node.
+    /// Projects the level's coarse sticks once, in [`Level::order`].
     ///
     /// # Safety
-    /// The sticks' slots are under `position.len()`, their ends under `nodes.len()`, and no
-    /// other task accesses these particles.
+    /// The sticks' slots are under `position.len()`, and no other task accesses these
+    /// particles.
     #[inline(always)]
-    unsafe fn project(&self, position: &SharedSlice<DVec3>, nodes: &mut [DVec3]) {
+    unsafe fn project(&self, position: &SharedSlice<DVec3>) {
         for &k in &self.order {
             let stick = &self.sticks[k as usize];
             let [wa, wb] = stick.inverse_mass;
@@ -623,53 +456,17 @@ impl Level {
             let (xa, xb) = unsafe { (position.get_unchecked(pa), position.get_unchecked(pb)) };
             let d = xb - xa;
             let length = d.length();
-            // (NaN lengths are skipped: a NaN is never spread from here.)
-            if length.is_nan() || length <= stick.max_length || wa + wb <= 0.0 {
+            // (NaN lengths and masses are skipped: a NaN is never spread from here.)
+            let movable = (wa + wb).partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
+            if length.is_nan() || length <= stick.max_length || !movable {
                 continue;
             }
             let excess = COARSE_RELAXATION * (length - stick.max_length);
             let correction = d * (excess / (length * (wa + wb)));
-            let [a, b] = stick.ends.map(|e| e as usize);
             // SAFETY: as above.
             unsafe {
                 position.set_unchecked(pa, xa + correction * wa);
                 position.set_unchecked(pb, xb - correction * wb);
-                *nodes.get_unchecked_mut(a) += correction * wa;
-                *nodes.get_unchecked_mut(b) -= correction * wb;
-            }
-        }
-    }
-
-    /// Interpolates the level's corrections to the finer particles not on it (children in
-    /// order: a child's parents are coarse particles or earlier children).
-    ///
-    /// # Safety
-    /// The children's particles are under `position.len()` and `fine_inverse_mass.len()`, a
-    /// child `k`'s parents under `particles.len() + k`, `nodes` holds the particles' and the
-    /// children's nodes, and no other task accesses these particles.
-    #[inline(always)]
-    unsafe fn hand_down(
-        &self,
-        position: &SharedSlice<DVec3>,
-        fine_inverse_mass: &[f64],
-        nodes: &mut [DVec3],
-    ) {
-        let coarse = self.particles.len();
-        for (k, child) in self.children.iter().enumerate() {
-            let mut delta = DVec3::ZERO;
-            for (&parent, &w) in child.parents.iter().zip(&child.weights) {
-                if w > 0.0 {
-                    // SAFETY: an earlier node (caller).
-                    delta += unsafe { *nodes.get_unchecked(parent as usize) } * w;
-                }
-            }
-            let p = child.particle as usize;
-            // SAFETY: in bounds (caller); the child's own node; its particle is this task's.
-            unsafe {
-                *nodes.get_unchecked_mut(coarse + k) = delta;
-                if *fine_inverse_mass.get_unchecked(p) > 0.0 && delta.is_finite() {
-                    position.set_unchecked(p, position.get_unchecked(p) + delta);
-                }
             }
         }
     }

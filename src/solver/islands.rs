@@ -762,8 +762,6 @@ impl Solver {
             islands.lines.sticks.len(),
             islands.lines.trees.particle.len(),
         );
-        self.hierarchy_scratch
-            .resize(islands.hierarchies.nodes, glam::DVec3::ZERO);
         islands.hierarchies.refresh(&self.particles, &self.sticks);
     }
 

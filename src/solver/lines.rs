@@ -55,7 +55,7 @@ pub enum Method {
     /// Sticks covered by lines, each line solved directly (see [`direct`](super::direct));
     /// sticks no line holds are swept after the lines.
     Lines,
-    /// Sweeps, each after a pass over coarse copies of the island (a hierarchy, see
+    /// Sweeps, each after a pass over coarse levels of long-range sticks (a hierarchy, see
     /// [`hierarchy`](super::hierarchy)) that carries a mesh's load to its pins at once: for
     /// cloth hung by a few pins. Islands without a mesh to coarsen (chains, single sticks) are
     /// swept plainly. Only chosen when asked for; [`Method::Auto`] does not pick it.

@@ -35,8 +35,9 @@
 //! Baraff 1996; Deul et al. 2018), correcting along the sticks' start-of-substep directions
 //! (SHAKE, Ryckaert et al. 1977), which keeps energy. [`Method`] (per solver, per island) picks
 //! lines or sweeps; [`Method::Auto`] picks by the island's shape in [`Solver::organize`].
-//! [`Method::Hierarchy`] (only when asked for) sweeps a mesh after a pass over coarser copies of
-//! it ([`hierarchy`], Müller 2008), which carries a cloth's load to a few pins at once.
+//! [`Method::Hierarchy`] (only when asked for) sweeps a mesh after a pass over coarse levels of
+//! long-range sticks along it ([`hierarchy`], after Müller 2008), which carries a cloth's load
+//! to a few pins at once.
 //!
 //! Pinned particles have inverse mass 0 (Jakobsen: "infinite mass"), so constraints move only the
 //! free end and two pins never fight. Everything is `f64`: see [`Particles`] for why.
@@ -236,8 +237,6 @@ pub struct Solver {
     pub(crate) line_builder: lines::LineBuilder,
     /// Scratch of the line solves.
     pub(crate) line_scratch: direct::LineScratch,
-    /// Scratch of the hierarchy passes: one slot per node (see [`hierarchy`]).
-    pub(crate) hierarchy_scratch: Vec<DVec3>,
     /// Newton passes of every line solve so far (see [`Solver::line_passes`]).
     pub(crate) line_passes: direct::PassCounter,
     /// Particles whose islands must wake before the next step (see [`Solver::wake`]).

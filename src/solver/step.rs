@@ -91,7 +91,6 @@ struct Views<'a> {
     stick_lambda: SharedSlice<'a, f64>,
     angle_lambda: SharedSlice<'a, f64>,
     lines: LineViews<'a>,
-    hierarchy: SharedSlice<'a, DVec3>,
 }
 
 /// The arrays the views borrow, moved out of the solver for a phase (no allocation).
@@ -101,7 +100,6 @@ struct Taken {
     stick_lambda: Vec<f64>,
     angle_lambda: Vec<f64>,
     lines: LineScratch,
-    hierarchy: Vec<DVec3>,
 }
 
 impl Solver {
@@ -488,7 +486,7 @@ impl Solver {
     /// An island's pass over its hierarchy's coarse levels, if it has an active one.
     ///
     /// # Safety
-    /// No other task accesses the island's particles or its hierarchy's scratch while this runs.
+    /// No other task accesses the island's particles while this runs.
     unsafe fn solve_hierarchy_of(&self, views: &Views, islands: &super::Islands, island: &Island) {
         let Some(hierarchy) = island
             .hierarchy
@@ -497,16 +495,8 @@ impl Solver {
         else {
             return;
         };
-        let nodes = range(&hierarchy.scratch);
-        if nodes.end > views.hierarchy.len() {
-            return; // (scratch not sized for it: never after `organize`)
-        }
-        // SAFETY: the hierarchy's particles are the island's and its scratch slots are its own
-        // (disjoint ranges per hierarchy), which this task holds (caller).
-        unsafe {
-            let scratch = views.hierarchy.slice_mut(nodes);
-            hierarchy.solve(&views.position, &self.particles.inverse_mass, scratch);
-        }
+        // SAFETY: the hierarchy's particles are the island's, which this task holds (caller).
+        unsafe { hierarchy.solve(&views.position) };
     }
 
     /// One round of an island's lines (group after group: block Gauss–Seidel over lines), then
@@ -745,7 +735,6 @@ impl Solver {
                 stick_lambda: std::mem::take(&mut self.sticks.lambda),
                 angle_lambda: std::mem::take(&mut self.angles.lambda),
                 lines: std::mem::take(&mut self.line_scratch),
-                hierarchy: std::mem::take(&mut self.hierarchy_scratch),
             },
             std::mem::take(&mut self.islands),
         )
@@ -757,7 +746,6 @@ impl Solver {
         self.sticks.lambda = taken.stick_lambda;
         self.angles.lambda = taken.angle_lambda;
         self.line_scratch = taken.lines;
-        self.hierarchy_scratch = taken.hierarchy;
         self.islands = islands;
     }
 }
@@ -769,7 +757,6 @@ fn views(taken: &mut Taken) -> Views<'_> {
         stick_lambda: SharedSlice::new(&mut taken.stick_lambda),
         angle_lambda: SharedSlice::new(&mut taken.angle_lambda),
         lines: LineViews::new(&mut taken.lines),
-        hierarchy: SharedSlice::new(&mut taken.hierarchy),
     }
 }
 
