@@ -3,6 +3,7 @@
 //! default budget (1/64 s steps, 8 substeps × 1 round). The 100 × 100 cloth hung by two corners
 //! is in `tests/hard_cases.rs` (957 % → 88 % largest strain while falling).
 
+use bevy_verlet_physics::solver::parallel::PARALLEL_MIN_STICK_ITERATIONS;
 use bevy_verlet_physics::solver::{Method, ScopedThreads, Solver, StepConfig, StickKind};
 use glam::DVec3;
 
@@ -200,16 +201,26 @@ fn a_pin_added_in_place_holds() {
 /// Hierarchies run on one thread per island: 1, 2 and 4 threads give the same bits.
 #[test]
 fn a_hierarchy_gives_the_same_bits_on_any_thread_count() {
-    let mut serial = cloth(40, 0.02, false, Method::Hierarchy);
-    let mut two = serial.clone();
-    let mut four = serial.clone();
-    for _ in 0..64 {
-        serial.step(&config());
-        two.step_with(&config(), &ScopedThreads(2));
-        four.step_with(&config(), &ScopedThreads(4));
+    // One round: the island is solved by one job; twelve: large enough for every thread
+    // (the coarse pass on one, then the colour batches split).
+    for iterations in [1, 12] {
+        let config = StepConfig {
+            iterations,
+            ..config()
+        };
+        let mut serial = cloth(40, 0.02, false, Method::Hierarchy);
+        let work = serial.sticks.len() * iterations as usize;
+        assert_eq!(work >= PARALLEL_MIN_STICK_ITERATIONS, iterations == 12);
+        let mut two = serial.clone();
+        let mut four = serial.clone();
+        for _ in 0..64 {
+            serial.step(&config);
+            two.step_with(&config, &ScopedThreads(2));
+            four.step_with(&config, &ScopedThreads(4));
+        }
+        assert_eq!(serial.particles.position, two.particles.position);
+        assert_eq!(serial.particles.position, four.particles.position);
     }
-    assert_eq!(serial.particles.position, two.particles.position);
-    assert_eq!(serial.particles.position, four.particles.position);
 }
 
 /// Many small cloths, each with its own hierarchy (disjoint scratch), solved in parallel jobs:

@@ -288,7 +288,7 @@ impl Solver {
         // Large coloured islands are solved on every thread; the rest in groups.
         let big = |island: &Island, substep: &Substep, batches: &[super::Batch]| {
             threads > 1
-                && !matches!(island.method, Method::Lines | Method::Hierarchy)
+                && island.method != Method::Lines
                 && len(&island.sticks) * substep.iterations as usize
                     >= PARALLEL_MIN_STICK_ITERATIONS
                 && batches[range(&island.batches)]
@@ -298,7 +298,8 @@ impl Solver {
         let mut counters = 0;
         for (island, substep) in due(&self.islands.list, global) {
             if big(island, &substep, &self.islands.batches) {
-                let per_iteration = len(&island.batches) + 1;
+                // (Batches, the rest, and a hierarchy's coarse pass.)
+                let per_iteration = len(&island.batches) + 2;
                 counters = counters.max(2 * per_iteration * substep.iterations as usize);
             }
         }
@@ -585,14 +586,18 @@ impl Solver {
     ) {
         let batches = &islands.batches[range(&island.batches)];
         let has_rest = !island.angles.is_empty() || !island.tethers.is_empty();
-        let per_iteration = batches.len() + has_rest as usize;
+        // A hierarchy's coarse pass is the first step of every iteration, on one thread.
+        let coarse = usize::from(island.method == Method::Hierarchy);
+        let per_iteration = coarse + batches.len() + has_rest as usize;
         let steps = per_iteration * substep.iterations as usize;
         let counters = &self.counters.0[..2 * steps];
         for counter in counters {
             counter.store(0, Ordering::Relaxed);
         }
-        let chunks_of = |k: usize| match batches.get(k) {
-            Some(batch) if batch.independent => batch.sticks.len().div_ceil(PARALLEL_CHUNK_STICKS),
+        let chunks_of = |k: usize| match batches.get(k.wrapping_sub(coarse)) {
+            Some(batch) if k >= coarse && batch.independent => {
+                batch.sticks.len().div_ceil(PARALLEL_CHUNK_STICKS)
+            }
             _ => 1,
         };
         let job = |_: usize| {
@@ -611,7 +616,8 @@ impl Solver {
                     // topology: `check_layout`); any other step is one chunk. The island is
                     // disjoint from every other (small islands run after this call returns).
                     unsafe {
-                        match batches.get(k) {
+                        match batches.get(k.wrapping_sub(coarse)) {
+                            _ if k < coarse => self.solve_hierarchy_of(views, islands, island),
                             Some(batch) => {
                                 let sticks = part(range(&batch.sticks), chunk, chunks);
                                 self.relax_stick_part(views, substep, sticks, batch.rigid);
