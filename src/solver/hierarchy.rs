@@ -6,7 +6,8 @@
 //! mesh first. Here, before every sweep of an island solved by
 //! [`Method::Hierarchy`](super::Method::Hierarchy), from the coarsest level to the first, every
 //! level's *coarse sticks* are projected once, then the ordinary sweep runs over the fine
-//! sticks. A coarse stick joins two particles a few fine sticks apart along a line of the mesh
+//! sticks, then the levels above the first once more ([`AFTER_SWEEP_FROM_LEVEL`]). A coarse
+//! stick joins two particles a few fine sticks apart along a line of the mesh
 //! and only pulls: its ends may not be farther apart than the rest length of the path of rigid
 //! sticks between them — a bound the fine sticks imply (a path is never shorter than the
 //! straight line between its ends), so a coarse stick never stiffens bending or shear, and it
@@ -20,9 +21,17 @@
 //! kinetic energy of the last 2 s of 10 s at 66–100 % of the fall's peak; 100 × 100 hung by its
 //! top row: 6.9 %), where sweeps settle (below 0.01 %). Without it (as here) every tested
 //! cloth settles as the sweep does (10 × 10 to 100 × 100; two corners, one corner, the top row:
-//! at most 0.025 % of the peak, as the sweep). The interpolation did spread the load further:
-//! 100 × 100 on two corners, 73 % / 31 % (falling / hanging) with it, 88 % / 47 % without,
-//! 957 % / 515 % swept.
+//! at most 0.025 % of the peak, as the sweep). On the 100 × 100 hung by two corners (falling /
+//! hanging): swept 957 % / 515 %; with the interpolation 73 % / 31 %; without it 88 % / 47 %;
+//! with the pass after the sweep too, **55 % / 31 %** (`tests/hard_cases.rs`).
+//!
+//! The pass after the sweep (levels above the first): measured on cloths hung by two corners
+//! (8 × 1, 10 s), 100 × 100: 88 % / 47 % → 55 % / 31 %; 50 × 50 (3 s): 42 % → 32 %; 40 × 40
+//! in the plugin: 21 % → 19 %; but 21 × 21: 7.1 % / 3.4 % → 10.9 % / 3.9 % and 12 × 12:
+//! 4.1 % / 1.5 % → 6.6 % / 2.2 % (small cloths, which need no hierarchy, lose a little); hung
+//! by the top row: about the same; every one settles. It costs 5–7 % of the step on the
+//! 100 × 100 (the first level, left out, holds three quarters of the coarse sticks; with it
+//! 55 % / 30 %; from the third level only 68 % / 36 %).
 //!
 //! Levels are built from the island's line cover (see [`lines`](super::lines)): a grid's lines
 //! are its rows and columns. A particle is on the next level when it is pinned or sits at an
@@ -30,7 +39,8 @@
 //! every other row and column, the corners included — and the next level's lines are the old
 //! lines' coarse particles. Only lines of rigid (`compliance == 0`) `Equal`/`AtMost` sticks
 //! take part. Levels stop at a few particles. On a 100 × 100 grid that is 6 500 coarse sticks
-//! for 19 800 fine ones.
+//! for 19 800 fine ones. All lines count their positions from the same side (see
+//! `first_paths`), so that crossing lines agree on which particles are even.
 //!
 //! A hierarchy is dropped for the rest of the topology (the island is swept plainly) once one of
 //! the sticks its lines hold is torn, cut, or made soft: coarse sticks across a tear would hold
@@ -81,8 +91,9 @@ const MAX_LEVELS: usize = 12;
 
 /// Fraction of a coarse stick's excess length one pass takes back: all of it, as for a fine
 /// stick. (With the interpolation to finer particles this crate no longer does, 1.0 fluttered
-/// and 0.85 was used; without it, measured on the 100 × 100 cloth hung by two corners, 1.0 gives
-/// 88 % / 47 % and 0.85 gives 91 % / 47 %, both settling.)
+/// and 0.85 was used; without it, measured on the 100 × 100 cloth hung by two corners before
+/// the pass after the sweep, 1.0 gives 88 % / 47 % and 0.85 gives 91 % / 47 %, both settling;
+/// 1.3 and 1.6 give 96 % / 50 % and 135 % / 75 %, the latter fluttering.)
 pub const COARSE_RELAXATION: f64 = 1.0;
 
 /// Every island's hierarchy (see the [module docs](self)).
@@ -171,7 +182,7 @@ pub(crate) fn build(
     lines: &[Line],
     (particles, sticks): (&Particles, &Sticks),
 ) -> Option<u32> {
-    let mut paths = first_paths(set, lines, sticks);
+    let mut paths = first_paths(set, lines, (particles, sticks));
     let mut hierarchy = Hierarchy {
         active: true,
         fine_sticks: paths
@@ -209,8 +220,18 @@ pub(crate) fn build(
     Some(out.list.len() as u32 - 1)
 }
 
-/// The island's lines cut into paths of rigid pulling sticks.
-fn first_paths(set: &LineSet, lines: &[Line], sticks: &Sticks) -> Vec<Path> {
+/// The island's lines cut into paths of rigid pulling sticks, all running one way along their
+/// main axis (x, y or z, by their ends). A level keeps the even positions of every line, so
+/// crossing lines must count from consistent ends, or a row's coarse particles miss the
+/// columns'; the lines are traced in stick order (colour order on a large mesh), which may run
+/// one row from the left and the next from the right — measured on a 40 × 40 cloth in the
+/// plugin, whose top row came out counted from the right and joined its odd columns to nothing
+/// below.
+fn first_paths(
+    set: &LineSet,
+    lines: &[Line],
+    (particles, sticks): (&Particles, &Sticks),
+) -> Vec<Path> {
     let mut paths = Vec::new();
     for line in lines {
         let ps = &set.particles[line.particles.start as usize..line.particles.end as usize];
@@ -229,6 +250,32 @@ fn first_paths(set: &LineSet, lines: &[Line], sticks: &Sticks) -> Vec<Path> {
         }
         if !path.sticks.is_empty() {
             paths.push(path);
+        }
+    }
+    // Every path points along its main axis, all the same way: the way that puts more pinned
+    // particles at even positions (a cloth hung from its top counts its columns from the top).
+    let pinned = |p: u32| particles.inverse_mass[p as usize] == 0.0;
+    let mut pins_even = [0usize; 2];
+    for path in &mut paths {
+        let end = |p: Option<&u32>| p.map_or(DVec3::ZERO, |&p| particles.position[p as usize]);
+        let along = end(path.particles.last()) - end(path.particles.first());
+        let axis = along.abs().max_position();
+        if along[axis] < 0.0 {
+            path.particles.reverse();
+            path.sticks.reverse();
+        }
+        let last = path.particles.len() - 1;
+        for (position, &p) in path.particles.iter().enumerate() {
+            if pinned(p) {
+                pins_even[0] += usize::from(position % 2 == 0);
+                pins_even[1] += usize::from((last - position) % 2 == 0);
+            }
+        }
+    }
+    if pins_even[1] > pins_even[0] {
+        for path in &mut paths {
+            path.particles.reverse();
+            path.sticks.reverse();
         }
     }
     paths
@@ -420,19 +467,24 @@ fn refresh_masses(levels: &mut [Level], particles: &Particles) {
     }
 }
 
+/// The first level of the pass after each sweep (see the [module docs](self)): the levels above
+/// the first, whose sticks are a quarter of all coarse sticks on a grid.
+pub const AFTER_SWEEP_FROM_LEVEL: usize = 1;
+
 impl Hierarchy {
-    /// One pass over the coarse levels, coarsest first (see the [module docs](self)).
+    /// One pass over the coarse levels from `first` up, coarsest first (see the
+    /// [module docs](self)).
     ///
     /// # Safety
     /// No other task accesses the particles of this hierarchy's island while this runs.
-    pub(crate) unsafe fn solve(&self, position: &SharedSlice<DVec3>) {
+    pub(crate) unsafe fn solve(&self, position: &SharedSlice<DVec3>, first: usize) {
         // One check per pass instead of one per access: every slot below is under `slots` (as
         // `build` makes them; the levels cannot be changed from outside the crate).
         assert!(
             self.slots <= position.len(),
             "a hierarchy's particles are out of bounds"
         );
-        for level in self.levels.iter().rev() {
+        for level in self.levels.iter().skip(first).rev() {
             // SAFETY: slots in bounds (checked above); the island's particles are this task's
             // (caller).
             unsafe { level.project(position) };

@@ -15,6 +15,7 @@
 use super::angles::relax_angle_range;
 use super::colliders::constrain_range;
 use super::direct::{LineRef, LineScratch, LineSolve, LineViews};
+use super::hierarchy::AFTER_SWEEP_FROM_LEVEL;
 use super::integrate::integrate_range;
 use super::lines::Method;
 use super::parallel::{
@@ -91,6 +92,16 @@ struct Views<'a> {
     stick_lambda: SharedSlice<'a, f64>,
     angle_lambda: SharedSlice<'a, f64>,
     lines: LineViews<'a>,
+}
+
+/// One step of an iteration of a large island solved on every thread.
+enum IslandStep<'a> {
+    /// A hierarchy's coarse pass from this level up (one thread).
+    Coarse(usize),
+    /// A colour batch (split between the threads when independent).
+    Batch(&'a super::Batch),
+    /// Angles and tethers (one thread).
+    Rest,
 }
 
 /// The arrays the views borrow, moved out of the solver for a phase (no allocation).
@@ -298,8 +309,8 @@ impl Solver {
         let mut counters = 0;
         for (island, substep) in due(&self.islands.list, global) {
             if big(island, &substep, &self.islands.batches) {
-                // (Batches, the rest, and a hierarchy's coarse pass.)
-                let per_iteration = len(&island.batches) + 2;
+                // (Batches, the rest, and a hierarchy's two coarse passes.)
+                let per_iteration = len(&island.batches) + 3;
                 counters = counters.max(2 * per_iteration * substep.iterations as usize);
             }
         }
@@ -474,21 +485,29 @@ impl Solver {
                 if island.method == Method::Lines {
                     self.solve_lines_of(views, islands, island, substep, round == 0);
                 } else {
-                    self.solve_hierarchy_of(views, islands, island);
+                    self.solve_hierarchy_of(views, islands, island, 0);
                     for batch in &islands.batches[range(&island.batches)] {
                         self.relax_sticks_of(views, substep, batch);
                     }
+                    self.solve_hierarchy_of(views, islands, island, AFTER_SWEEP_FROM_LEVEL);
                 }
                 self.relax_rest_of(views, island, substep);
             }
         }
     }
 
-    /// An island's pass over its hierarchy's coarse levels, if it has an active one.
+    /// An island's pass over its hierarchy's coarse levels from `first` up, if it has an active
+    /// hierarchy.
     ///
     /// # Safety
     /// No other task accesses the island's particles while this runs.
-    unsafe fn solve_hierarchy_of(&self, views: &Views, islands: &super::Islands, island: &Island) {
+    unsafe fn solve_hierarchy_of(
+        &self,
+        views: &Views,
+        islands: &super::Islands,
+        island: &Island,
+        first: usize,
+    ) {
         let Some(hierarchy) = island
             .hierarchy
             .and_then(|k| islands.hierarchies.list.get(k as usize))
@@ -497,7 +516,7 @@ impl Solver {
             return;
         };
         // SAFETY: the hierarchy's particles are the island's, which this task holds (caller).
-        unsafe { hierarchy.solve(&views.position) };
+        unsafe { hierarchy.solve(&views.position, first) };
     }
 
     /// One round of an island's lines (group after group: block Gauss–Seidel over lines), then
@@ -586,16 +605,24 @@ impl Solver {
     ) {
         let batches = &islands.batches[range(&island.batches)];
         let has_rest = !island.angles.is_empty() || !island.tethers.is_empty();
-        // A hierarchy's coarse pass is the first step of every iteration, on one thread.
+        // A hierarchy's coarse passes are the steps before and after the batches, on one thread.
         let coarse = usize::from(island.method == Method::Hierarchy);
-        let per_iteration = coarse + batches.len() + has_rest as usize;
+        let per_iteration = 2 * coarse + batches.len() + has_rest as usize;
+        let step_of = |k: usize| match k.checked_sub(coarse) {
+            None => IslandStep::Coarse(0),
+            Some(b) if b < batches.len() => IslandStep::Batch(&batches[b]),
+            Some(b) if b == batches.len() && coarse == 1 => {
+                IslandStep::Coarse(AFTER_SWEEP_FROM_LEVEL)
+            }
+            Some(_) => IslandStep::Rest,
+        };
         let steps = per_iteration * substep.iterations as usize;
         let counters = &self.counters.0[..2 * steps];
         for counter in counters {
             counter.store(0, Ordering::Relaxed);
         }
-        let chunks_of = |k: usize| match batches.get(k.wrapping_sub(coarse)) {
-            Some(batch) if k >= coarse && batch.independent => {
+        let chunks_of = |k: usize| match step_of(k) {
+            IslandStep::Batch(batch) if batch.independent => {
                 batch.sticks.len().div_ceil(PARALLEL_CHUNK_STICKS)
             }
             _ => 1,
@@ -616,13 +643,15 @@ impl Solver {
                     // topology: `check_layout`); any other step is one chunk. The island is
                     // disjoint from every other (small islands run after this call returns).
                     unsafe {
-                        match batches.get(k.wrapping_sub(coarse)) {
-                            _ if k < coarse => self.solve_hierarchy_of(views, islands, island),
-                            Some(batch) => {
+                        match step_of(k) {
+                            IslandStep::Coarse(first) => {
+                                self.solve_hierarchy_of(views, islands, island, first)
+                            }
+                            IslandStep::Batch(batch) => {
                                 let sticks = part(range(&batch.sticks), chunk, chunks);
                                 self.relax_stick_part(views, substep, sticks, batch.rigid);
                             }
-                            None => self.relax_rest_of(views, island, substep),
+                            IslandStep::Rest => self.relax_rest_of(views, island, substep),
                         }
                     }
                     // (Release: the next batch's claimers see these positions.)
