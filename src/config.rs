@@ -69,8 +69,9 @@ pub struct VerletConfig {
 #[reflect(Default, Debug, Clone)]
 pub enum SolveMethod {
     /// Per island: ropes, chains and trees (no loop, no angle constraint) are solved by lines —
-    /// exactly, whatever their length and mass ratio, and keeping their energy; cloth, ragdolls
-    /// with posture links and braced structures by Gauss–Seidel sweeps.
+    /// exactly, whatever their length and mass ratio, and keeping their energy; a large cloth
+    /// (2048 sticks or more) without tethers hung from one to four pins with a hierarchy;
+    /// other cloth, ragdolls with posture links and braced structures by Gauss–Seidel sweeps.
     #[default]
     Auto,
     /// Gauss–Seidel sweeps over single sticks for every island.

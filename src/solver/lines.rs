@@ -58,7 +58,8 @@ pub enum Method {
     /// Sweeps, each after a pass over coarse levels of long-range sticks (a hierarchy, see
     /// [`hierarchy`](super::hierarchy)) that carries a mesh's load to its pins at once: for
     /// cloth hung by a few pins. Islands without a mesh to coarsen (chains, single sticks) are
-    /// swept plainly. Only chosen when asked for; [`Method::Auto`] does not pick it.
+    /// swept plainly. [`Method::Auto`] picks it for large meshes without tethers hung from a
+    /// few pins (see [`HIERARCHY_MAX_PINS`](super::islands::HIERARCHY_MAX_PINS)).
     Hierarchy,
 }
 

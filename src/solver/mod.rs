@@ -35,9 +35,9 @@
 //! Baraff 1996; Deul et al. 2018), correcting along the sticks' start-of-substep directions
 //! (SHAKE, Ryckaert et al. 1977), which keeps energy. [`Method`] (per solver, per island) picks
 //! lines or sweeps; [`Method::Auto`] picks by the island's shape in [`Solver::organize`].
-//! [`Method::Hierarchy`] (only when asked for) sweeps a mesh after a pass over coarse levels of
-//! long-range sticks along it ([`hierarchy`], after Müller 2008), which carries a cloth's load
-//! to a few pins at once.
+//! [`Method::Hierarchy`] (picked for large meshes hung from a few pins) sweeps a mesh between
+//! passes over coarse levels of long-range sticks along it ([`hierarchy`], after Müller 2008),
+//! which carry a cloth's load to a few pins at once.
 //!
 //! Pinned particles have inverse mass 0 (Jakobsen: "infinite mass"), so constraints move only the
 //! free end and two pins never fight. Everything is `f64`: see [`Particles`] for why.
@@ -228,7 +228,8 @@ pub struct Solver {
     /// by [`Solver::organize`]).
     pub island_settings: Vec<(u32, IslandSettings)>,
     /// How islands are solved unless overridden (applied by [`Solver::organize`]): by default
-    /// [`Method::Auto`] — chains and trees by lines, everything else by sweeps.
+    /// [`Method::Auto`] — chains and trees by lines, large meshes without tethers hung from a few
+    /// pins with a hierarchy, everything else by sweeps.
     pub method: Method,
     /// Per-island method overrides: the island containing the particle is solved this way
     /// (applied by [`Solver::organize`]).
