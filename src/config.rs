@@ -70,7 +70,8 @@ pub struct VerletConfig {
 pub enum SolveMethod {
     /// Per island: ropes, chains and trees (no loop, no angle constraint) are solved by lines —
     /// exactly, whatever their length and mass ratio, and keeping their energy; a large cloth
-    /// (2048 sticks or more) without tethers hung from one to four pins with a hierarchy;
+    /// (2048 sticks or more) without tethers or tearable sticks hung from one to four pinned
+    /// (or immovable) particles with a hierarchy;
     /// other cloth, ragdolls with posture links and braced structures by Gauss–Seidel sweeps.
     #[default]
     Auto,

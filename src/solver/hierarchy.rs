@@ -83,6 +83,15 @@ use super::{Particles, StickKind, Sticks};
 use glam::DVec3;
 use std::ops::Range;
 
+/// Every path runs the way this direction points (see `first_paths`): parallel lines then
+/// count from the same side. Its components are far from each other and from zero so that no
+/// usual pose of a grid — axis-aligned, turned by 45° or 90°, tilted — puts a family of lines
+/// across it. (Measured against choosing each line's main axis, which ties for lines at 45°:
+/// of two-corner cloths from 8 × 8 to 64 × 64 turned by 45° or 135° about z, tilted 45°/45°,
+/// 45° about x or 45°/30°, 65 of 145 got another lattice than unturned; a 40 × 40 turned and
+/// tilted stretched 57 % instead of 27 % in 3 s.)
+const ORIENTATION: DVec3 = DVec3::new(0.8017, 0.5345, 0.2673);
+
 /// A level with at most this many particles is not coarsened further.
 const COARSEST: usize = 4;
 
@@ -220,8 +229,8 @@ pub(crate) fn build(
     Some(out.list.len() as u32 - 1)
 }
 
-/// The island's lines cut into paths of rigid pulling sticks, all running one way along their
-/// main axis (x, y or z, by their ends). A level keeps the even positions of every line, so
+/// The island's lines cut into paths of rigid pulling sticks, all running the way
+/// [`ORIENTATION`] points (by their ends). A level keeps the even positions of every line, so
 /// crossing lines must count from consistent ends, or a row's coarse particles miss the
 /// columns'; the lines are traced in stick order (colour order on a large mesh), which may run
 /// one row from the left and the next from the right — measured on a 40 × 40 cloth in the
@@ -259,8 +268,7 @@ fn first_paths(
     for path in &mut paths {
         let end = |p: Option<&u32>| p.map_or(DVec3::ZERO, |&p| particles.position[p as usize]);
         let along = end(path.particles.last()) - end(path.particles.first());
-        let axis = along.abs().max_position();
-        if along[axis] < 0.0 {
+        if along.dot(ORIENTATION) < 0.0 {
             path.particles.reverse();
             path.sticks.reverse();
         }
