@@ -139,7 +139,8 @@ Rigid sticks (compliance 0) are what the seeds' stiffness 1.0 maps to, so the ri
 
 Settings: 1 × N (the seeds' style), S × 1, S × 2 and S × 4 for N, S in the swept budgets, and
 S × 1 solved by lines (`Method::Lines`, SHAKE on) for S up to 8, S × 1 with a hierarchy
-(`Method::Hierarchy`: coarse levels before each sweep); with
+(`Method::Hierarchy`: coarse levels of long-range sticks before and after each sweep; `Method::Auto`
+picks it only for large untethered cloths hung by a few pins, none of these scenes); with
 tethers (every free particle tethered to its two nearest pins, `Solver::rebuild_tethers`) for the
 chains and the cloth; XPBD (`Stiffness::Seed` conversion) against plain per-projection stiffness
 for the soft materials (plain PBD is emulated by setting `α = w·h²·(1 − k)/k` and never
