@@ -83,8 +83,8 @@ use super::{Particles, StickKind, Sticks};
 use glam::DVec3;
 use std::ops::Range;
 
-/// Every path runs the way this direction points (see `first_paths`): parallel lines then
-/// count from the same side. Its components are far from each other and from zero so that no
+/// Every path runs the way this direction, about (3, 2, 1)/√14, points (see `first_paths`):
+/// parallel lines then count from the same side. Its components are far from each other and from zero so that no
 /// usual pose of a grid — axis-aligned, turned by 45° or 90°, tilted — puts a family of lines
 /// across it. (Measured against choosing each line's main axis, which ties for lines at 45°:
 /// of two-corner cloths from 8 × 8 to 64 × 64 turned by 45° or 135° about z, tilted 45°/45°,
@@ -261,8 +261,9 @@ fn first_paths(
             paths.push(path);
         }
     }
-    // Every path points along its main axis, all the same way: the way that puts more pinned
-    // particles at even positions (a cloth hung from its top counts its columns from the top).
+    // Every path runs the way ORIENTATION points, then all are turned round if that puts more
+    // pinned particles at even positions (a cloth hung from its top counts its columns from the
+    // top).
     let pinned = |p: u32| particles.inverse_mass[p as usize] == 0.0;
     let mut pins_even = [0usize; 2];
     for path in &mut paths {
@@ -290,13 +291,13 @@ fn first_paths(
 }
 
 /// Per-particle marks while a level is built: the position of each particle on the level
-/// (`u32::MAX`: not on it), whether an odd position of a line excludes it, and the lines
-/// through it.
+/// (`u32::MAX`: not on it), whether an odd position of a line excludes it, and whether a line
+/// of the level's paths passes through it.
 #[derive(Clone, Debug, Default)]
 struct Marks {
     coarse_index: Vec<u32>,
     odd: Vec<bool>,
-    on_paths: Vec<Vec<(u32, u32)>>,
+    seen: Vec<bool>,
     touched: Vec<u32>,
     /// Per particle: the run of interleaved lines that last took it (see [`solve_order`]).
     run: Vec<u32>,
@@ -310,7 +311,7 @@ impl Marks {
         if self.coarse_index.len() < n {
             self.coarse_index.resize(n, u32::MAX);
             self.odd.resize(n, false);
-            self.on_paths.resize(n, Vec::new());
+            self.seen.resize(n, false);
             self.run.resize(n, 0);
         }
     }
@@ -320,7 +321,7 @@ impl Marks {
             let p = p as usize;
             self.coarse_index[p] = u32::MAX;
             self.odd[p] = false;
-            self.on_paths[p].clear();
+            self.seen[p] = false;
         }
         self.touched.clear();
     }
@@ -330,15 +331,15 @@ impl Marks {
 fn coarsen(paths: &[Path], particles: &Particles, marks: &mut Marks) -> Option<(Level, Vec<Path>)> {
     marks.reset();
     let mut order = Vec::new();
-    for (k, path) in paths.iter().enumerate() {
+    for path in paths {
         let last = path.particles.len() - 1;
         for (position, &p) in path.particles.iter().enumerate() {
             let slot = p as usize;
-            if marks.on_paths[slot].is_empty() {
+            if !marks.seen[slot] {
+                marks.seen[slot] = true;
                 marks.touched.push(p);
                 order.push(p);
             }
-            marks.on_paths[slot].push((k as u32, position as u32));
             marks.odd[slot] |= position % 2 == 1 && position != last;
         }
     }

@@ -195,7 +195,8 @@ impl Islands {
     }
 }
 
-/// A list that the solver builds and everyone else only reads: it dereferences to a slice.
+/// A list that the solver builds and everyone else only reads: it dereferences to a slice. It
+/// carries the stamp of the build it came from (see [`Solver::is_organized`]).
 ///
 /// ```
 /// use bevy_verlet_physics::solver::Solver;
@@ -264,11 +265,19 @@ pub const COLOUR_MIN_STICKS: usize = 2048;
 
 /// [`Method::Auto`] gives a mesh island (at least [`COLOUR_MIN_STICKS`] sticks, 1.5 per
 /// particle) without tethers and without tearable sticks a hierarchy when it hangs from at least
-/// one and at most this many immovable particles (pinned or of infinite mass): the load must cross the mesh to reach them, which sweeps carry a row or
-/// two per pass (a 100 × 100 cloth on two corners: 957 % / 515 % swept, 55 % / 31 % with a
-/// hierarchy at 1.4× the cost). Hung from a whole row the load runs along the columns, which
-/// substeps serve as well, and tethers already bound what a hierarchy would.
+/// one and at most this many immovable particles (pinned or of infinite mass): the load must
+/// cross the mesh to reach them, which sweeps carry a row or two per pass (a 100 × 100 cloth on
+/// two corners: 957 % / 515 % swept, 55 % / 31 % with a hierarchy at 1.4× the cost). Hung from
+/// a whole row the load runs along the columns, which substeps serve as well, and tethers
+/// already bound what a hierarchy would.
 pub const HIERARCHY_MAX_PINS: usize = 4;
+
+/// `true` for an island big and dense enough to be a mesh (cloth rather than rope or ragdoll):
+/// at least [`COLOUR_MIN_STICKS`] sticks and 1.5 per particle. Such islands are swept in colour
+/// order, and [`Method::Auto`] may give them a hierarchy.
+fn is_mesh(sticks: usize, particles: usize) -> bool {
+    sticks >= COLOUR_MIN_STICKS && 2 * sticks >= 3 * particles
+}
 
 impl Islands {
     /// The lines of the islands solved by [`Method::Lines`].
@@ -449,7 +458,7 @@ impl Solver {
                 return false;
             };
             let particles = grouping.particles(island as usize).len();
-            sticks >= COLOUR_MIN_STICKS && 2 * sticks >= 3 * particles
+            is_mesh(sticks, particles)
         };
         let has_cycles = |island: u32| {
             sticks_in.get(island as usize).is_some_and(|&sticks| {
@@ -624,9 +633,9 @@ impl Solver {
     /// `true` when [`Solver::islands`] describes the current arrays: built by
     /// [`Solver::organize`] (or the step's one-island fallback) for these sizes and these
     /// stick, angle and tether indices, its lists the ones built with the rest (not a list
-    /// saved from an earlier build and put back). The step uses the islands only then — otherwise it
-    /// treats everything as one island, which is always safe — so no edit can make it split
-    /// work by a stale layout.
+    /// saved from an earlier build and put back). The step uses the islands only then —
+    /// otherwise it treats everything as one island, which is always safe — so no edit can make
+    /// it split work by a stale layout.
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Solver, StickKind};
@@ -737,8 +746,7 @@ impl Solver {
                 let tear = &self.sticks.tear_strain[start..end];
                 tear.iter().all(|t| !t.is_finite())
             };
-            let hung_mesh = sticks >= COLOUR_MIN_STICKS
-                && 2 * sticks >= 3 * particles.len()
+            let hung_mesh = is_mesh(sticks, particles.len())
                 && island.tethers.is_empty()
                 && few_pins()
                 && whole();

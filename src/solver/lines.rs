@@ -55,11 +55,11 @@ pub enum Method {
     /// Sticks covered by lines, each line solved directly (see [`direct`](super::direct));
     /// sticks no line holds are swept after the lines.
     Lines,
-    /// Sweeps, each after a pass over coarse levels of long-range sticks (a hierarchy, see
-    /// [`hierarchy`](super::hierarchy)) that carries a mesh's load to its pins at once: for
+    /// Sweeps between passes over coarse levels of long-range sticks (a hierarchy, see
+    /// [`hierarchy`](super::hierarchy)) that carry a mesh's load to its pins at once: for
     /// cloth hung by a few pins. Islands without a mesh to coarsen (chains, single sticks) are
-    /// swept plainly. [`Method::Auto`] picks it for large meshes without tethers hung from a
-    /// few pins (see [`HIERARCHY_MAX_PINS`](super::islands::HIERARCHY_MAX_PINS)).
+    /// swept plainly. [`Method::Auto`] picks it for large meshes without tethers or tearable
+    /// sticks hung from a few pins (see [`HIERARCHY_MAX_PINS`](super::islands::HIERARCHY_MAX_PINS)).
     Hierarchy,
 }
 

@@ -429,8 +429,8 @@ impl TreeSolve<'_, '_> {
 
     /// Start of the substep: start directions, the mode (SHAKE when no stick turns more than
     /// ≈ 8°; `shake`: it may be used this substep), and the warm start along the start
-    /// directions (SHAKE only). Returns the largest
-    /// `|C|/L` before the warm start, and the largest of a rigid stick at the start positions.
+    /// directions (SHAKE only). Returns the largest `|C|/L` before the warm start, and the
+    /// largest of a rigid stick at the start positions.
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
