@@ -5,8 +5,9 @@
 //! (Müller 2008, "Hierarchical Position Based Dynamics", VRIPHYS) solves coarser copies of the
 //! mesh first. Here, before every sweep of an island solved by
 //! [`Method::Hierarchy`](super::Method::Hierarchy), from the coarsest level to the first, every
-//! level's *coarse sticks* are projected once, then the ordinary sweep runs over the fine
-//! sticks, then the levels above the first once more ([`AFTER_SWEEP_FROM_LEVEL`]). A coarse
+//! level's *coarse sticks* are projected (the smaller levels several times: [`Level::passes`]),
+//! then the ordinary sweep runs over the fine sticks, then the levels above the first once
+//! more ([`AFTER_SWEEP_FROM_LEVEL`]). A coarse
 //! stick joins two particles a few fine sticks apart along a line of the mesh
 //! and only pulls: its ends may not be farther apart than the rest length of the path of rigid
 //! sticks between them — a bound the fine sticks imply (a path is never shorter than the
@@ -23,10 +24,11 @@
 //! cloth settles as the sweep does (10 × 10 to 100 × 100; two corners, one corner, the top row:
 //! at most 0.025 % of the peak, as the sweep). On the 100 × 100 hung by two corners (falling /
 //! hanging): swept 957 % / 515 %; with the interpolation 73 % / 31 %; without it 88 % / 47 %;
-//! with the pass after the sweep too, **55 % / 31 %** (`tests/hard_cases.rs`).
+//! with the pass after the sweep too, 55 % / 31 %; with the smaller levels projected more often
+//! ([`Level::passes`]), **29 % / 20 %** (`tests/hard_cases.rs`).
 //!
 //! The pass after the sweep (levels above the first): measured on cloths hung by two corners
-//! (8 × 1, 10 s), 100 × 100: 88 % / 47 % → 55 % / 31 %; 50 × 50 (3 s): 42 % → 32 %; 40 × 40
+//! (8 × 1, 10 s, each level projected once then), 100 × 100: 88 % / 47 % → 55 % / 31 %; 50 × 50 (3 s): 42 % → 32 %; 40 × 40
 //! in the plugin: 21 % → 19 %; but 21 × 21: 7.1 % / 3.4 % → 10.9 % / 3.9 % and 12 × 12:
 //! 4.1 % / 1.5 % → 6.6 % / 2.2 % (small cloths, which need no hierarchy, lose a little); hung
 //! by the top row: about the same; every one settles. It costs 5–7 % of the step on the
@@ -143,6 +145,9 @@ pub struct Level {
     /// (they touch different particles) without each projection waiting for the last one's
     /// square root.
     order: Vec<u32>,
+    /// How many times the level is projected per coarse pass: `√(first / sticks) / 2` rounded,
+    /// at least once, where `first` is the first level's stick count (see `level_passes`).
+    pub passes: u32,
 }
 
 /// At most this many disjoint lines take turns in a level's projection order.
@@ -217,6 +222,10 @@ pub(crate) fn build(
     out.marks = marks;
     if hierarchy.levels.is_empty() {
         return None;
+    }
+    let first = hierarchy.levels[0].sticks.len();
+    for level in &mut hierarchy.levels {
+        level.passes = level_passes(first, level.sticks.len());
     }
     hierarchy.slots = hierarchy
         .levels
@@ -494,11 +503,37 @@ impl Hierarchy {
             "a hierarchy's particles are out of bounds"
         );
         for level in self.levels.iter().skip(first).rev() {
-            // SAFETY: slots in bounds (checked above); the island's particles are this task's
-            // (caller).
-            unsafe { level.project(position) };
+            for _ in 0..level.passes {
+                // SAFETY: slots in bounds (checked above); the island's particles are this
+                // task's (caller).
+                unsafe { level.project(position) };
+            }
         }
     }
+}
+
+/// How many times a level of `sticks` coarse sticks is projected per coarse pass, when the
+/// first level has `first`: `√(first / sticks) / 2`, rounded, at least once. A coarse level is a
+/// mesh of sticks too: one Gauss–Seidel projection carries its corrections a stick or two, and
+/// its load has to cross it whole — the more often, the fewer its sticks. On a grid, each level
+/// has about a quarter of the sticks of the one below, so the count about doubles per level
+/// from the third (100 × 100: 1, 1, 2, 3, 6, 10 and 18 passes for levels of 5100, 1300, 364,
+/// 112, 40, 12 and 4 sticks: 7896 projections of coarse sticks per pass instead of 6952). A
+/// level that did not shrink (lines of one stick are kept whole on every level) is not
+/// projected more often than the one below: no level costs more than a projection of the first,
+/// and a repeated one at most a quarter of it.
+///
+/// Measured on cloths hung by two corners (8 × 1, 10 s, damping 1/s, falling / hanging max
+/// strain, solver core alone): 100 × 100 55 % / 31 % → 29 % / 20 %, its step 1074 → 1127 µs
+/// (+5 %; the sweep's 767 µs: 1.40× → 1.47×; `examples/bench`, three runs each); 50 × 50
+/// 22 % / 14 % → 19 % / 12 %; 12 × 12 and 21 × 21 unchanged (6 % and 11 % falling); all settle
+/// as before (kinetic energy of the last 2 s at most 4·10⁻⁵ of the fall's peak). Measured too:
+/// doubling from the first level on, 23 % / 17 % at about +18 %; four passes of the levels from
+/// the fourth, 31 % / 21 %; each repeat of a level followed by one of the level below, 21 % /
+/// 13 % at about +40 %.
+fn level_passes(first: usize, sticks: usize) -> u32 {
+    let ratio = first as f64 / sticks.max(1) as f64;
+    (ratio.sqrt() / 2.0).round().max(1.0) as u32
 }
 
 impl Level {

@@ -267,7 +267,7 @@ pub const COLOUR_MIN_STICKS: usize = 2048;
 /// particle) without tethers and without tearable sticks a hierarchy when it hangs from at least
 /// one and at most this many immovable particles (pinned or of infinite mass): the load must
 /// cross the mesh to reach them, which sweeps carry a row or two per pass (a 100 × 100 cloth on
-/// two corners: 957 % / 515 % swept, 55 % / 31 % with a hierarchy at 1.4× the cost). Hung from
+/// two corners: 957 % / 515 % swept, 29 % / 20 % with a hierarchy at 1.5× the cost). Hung from
 /// a whole row the load runs along the columns, which substeps serve as well, and tethers
 /// already bound what a hierarchy would.
 pub const HIERARCHY_MAX_PINS: usize = 4;
