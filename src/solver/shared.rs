@@ -23,7 +23,10 @@ use std::cell::Cell;
 use std::marker::PhantomData;
 use std::ops::Range;
 
-/// A slice shared by tasks that access disjoint indices (see the module docs).
+/// A slice shared by tasks that access disjoint indices (see the module docs). Copies share
+/// the borrow (and its lifetime): a solve keeps its own copy in a local, where the compiler
+/// knows that no store moves the pointer.
+#[derive(Clone, Copy)]
 pub(crate) struct SharedSlice<'a, T> {
     ptr: *mut T,
     len: usize,

@@ -65,7 +65,7 @@
 
 use super::direct::{
     LineMode, MAX_PASSES, SHAKE_CONTRACTION, SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE,
-    TOLERANCE,
+    TOLERANCE, converges_next,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -527,22 +527,27 @@ impl TreeSolve<'_, '_> {
             }
             let mut passes = 0;
             let mut before = f64::INFINITY;
+            let mut eliminated = false;
             loop {
-                if passes > 0 {
-                    error = self.residual(view);
-                }
                 if error <= TOLERANCE {
                     return (passes, true);
                 }
                 if passes == budget || error > contraction * before {
                     return (passes, false);
                 }
-                before = error;
-                // (The elimination only when a pass follows: a converged tree costs one
-                // traversal of lengths, not an elimination.)
-                self.forward(view, s);
+                let earlier = std::mem::replace(&mut before, error);
+                if !eliminated {
+                    self.forward::<false>(view, s);
+                }
                 self.backward(view, s);
                 passes += 1;
+                // (As for lines: see `direct::converges_next`.)
+                eliminated = !converges_next(error, earlier);
+                error = if eliminated {
+                    self.forward::<true>(view, s)
+                } else {
+                    self.residual(view)
+                };
             }
         }
     }
@@ -625,12 +630,14 @@ impl TreeSolve<'_, '_> {
         worst
     }
 
-    /// Leaves to root: every stick reduced to `Δλ_k = a_k·Δx_p + β_k`.
+    /// Leaves to root: every stick reduced to `Δλ_k = a_k·Δx_p + β_k`. With `MEASURE`, returns
+    /// the residual at the iterate, as [`TreeSolve::residual`] does (else 0).
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
-    unsafe fn forward(&self, view: &TreeView, s: &mut [Node]) {
+    unsafe fn forward<const MEASURE: bool>(&self, view: &TreeView, s: &mut [Node]) -> f64 {
         let shake = s[0].mode == LineMode::Shake;
+        let mut worst: f64 = 0.0;
         // (Every other node clears its accumulators once it has used them, below.)
         s[0].clear();
         for t in (1..view.particle.len()).rev() {
@@ -655,6 +662,10 @@ impl TreeSolve<'_, '_> {
                 let k = row.stick;
                 let alpha = *self.sticks.compliance.get_unchecked(k) * self.inv_h2;
                 let residual = row.c + alpha * self.lambda.get_unchecked(k);
+                if MEASURE && row.active {
+                    let rest = *self.sticks.rest_length.get_unchecked(k);
+                    worst = worst.max(residual.abs() / rest.max(1e-12));
+                }
                 let n = row.normal * row.sign;
                 let d = n.dot(node.u) * (1.0 + REGULARISATION) + alpha;
                 // (Under SHAKE the system is not symmetric and a pivot may be negative; zero is
@@ -678,6 +689,7 @@ impl TreeSolve<'_, '_> {
                 parent.load -= pull * node.beta;
             }
         }
+        worst
     }
 
     /// Root to leaves: `Δλ_k = a_k·Δx_p + β_k`, `Δx_j = u_j Δλ_k + v_j`; λ updated and each
