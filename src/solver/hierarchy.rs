@@ -551,13 +551,18 @@ impl Level {
             // SAFETY: in bounds, this task's (caller).
             let (xa, xb) = unsafe { (position.get_unchecked(pa), position.get_unchecked(pb)) };
             let d = xb - xa;
-            let length = d.length();
-            // (NaN lengths and masses are skipped: a NaN is never spread from here.)
-            let movable = (wa + wb).partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
-            if length.is_nan() || length <= stick.max_length || !movable {
+            // (A slack stick — most of them in a hanging cloth — is passed over without a square
+            // root. NaN lengths and masses are skipped: a NaN is never spread from here.)
+            let max = stick.max_length;
+            if !(d.length_squared() > max * max) {
                 continue;
             }
-            let excess = COARSE_RELAXATION * (length - stick.max_length);
+            let length = d.length();
+            let movable = (wa + wb).partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
+            if length.is_nan() || length <= max || !movable {
+                continue;
+            }
+            let excess = COARSE_RELAXATION * (length - max);
             let correction = d * (excess / (length * (wa + wb)));
             // SAFETY: as above.
             unsafe {
