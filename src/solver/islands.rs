@@ -453,45 +453,62 @@ impl Solver {
                 *n += 1;
             }
         }
-        let coloured = |island: u32| {
-            let Some(&sticks) = sticks_in.get(island as usize) else {
-                return false;
-            };
-            let particles = grouping.particles(island as usize).len();
-            is_mesh(sticks, particles)
+        // Per island (torn sticks' island, past the last, is neither).
+        let per_island = |test: fn(usize, usize) -> bool| -> Vec<bool> {
+            let particles = |island: usize| grouping.particles(island).len();
+            (0..grouping.count())
+                .map(|island| test(sticks_in[island], particles(island)))
+                .collect()
         };
-        let has_cycles = |island: u32| {
-            sticks_in.get(island as usize).is_some_and(|&sticks| {
-                !is_chain_or_tree(sticks, grouping.particles(island as usize).len())
-            })
-        };
+        let coloured = per_island(is_mesh);
+        let has_cycles = per_island(|sticks, particles| !is_chain_or_tree(sticks, particles));
+        let flag = |flags: &[bool], island: u32| flags.get(island as usize) == Some(&true);
         let level = sweep_levels(sticks, self.particles.len());
-        let key = |i: u32| {
-            let island = island_of_stick(i);
-            let [a, b] = sticks.ends[i as usize];
-            if coloured(island) {
-                (island, a.min(b), a.max(b))
-            } else if has_cycles(island) {
-                (island, level[i as usize], i)
-            } else {
-                (island, 0, i)
-            }
-        };
-        let mut order: Vec<u32> = (0..m as u32).collect();
-        order.sort_by_key(|&i| key(i));
+        // Keys computed once, each with its stick's index last: an unstable sort then gives
+        // the stable order (a key computed per comparison was 72 % of a 200 × 200 cloth's
+        // organize).
+        let mut keyed: Vec<([u32; 3], u32)> = (0..m as u32)
+            .map(|i| {
+                let island = island_of_stick(i);
+                let [a, b] = sticks.ends[i as usize];
+                let key = if flag(&coloured, island) {
+                    [island, a.min(b), a.max(b)]
+                } else if flag(&has_cycles, island) {
+                    [island, level[i as usize], i]
+                } else {
+                    [island, 0, i]
+                };
+                (key, i)
+            })
+            .collect();
+        keyed.sort_unstable();
+        let order: Vec<u32> = keyed.iter().map(|&(_, i)| i).collect();
         let mut used = vec![0u64; self.particles.len()];
         let mut colour = Vec::with_capacity(m);
         colour_sticks(&sticks.ends, &order, &mut used, &mut colour);
-        let mut colour_of = vec![0u32; m];
-        for (&stick, &c) in order.iter().zip(&colour) {
-            let serial = !coloured(island_of_stick(stick));
-            colour_of[stick as usize] = if serial { MAX_COLOURS } else { c };
-        }
-        // (Stable: within a colour the (island, ends) order stays.)
-        order.sort_by_key(|&i| (island_of_stick(i), colour_of[i as usize]));
+        // By island and colour; within a colour the (island, ends) order stays.
+        let mut by_colour: Vec<([u32; 2], u32)> = order
+            .iter()
+            .zip(&colour)
+            .enumerate()
+            .map(|(position, (&stick, &c))| {
+                let island = island_of_stick(stick);
+                let c = if flag(&coloured, island) {
+                    c
+                } else {
+                    MAX_COLOURS
+                };
+                ([island, c], position as u32)
+            })
+            .collect();
+        by_colour.sort_unstable();
+        let colour_of_position: Vec<u32> = by_colour.iter().map(|&([_, c], _)| c).collect();
+        let order: Vec<u32> = by_colour
+            .iter()
+            .map(|&(_, position)| order[position as usize])
+            .collect();
         self.permute_sticks(&order);
-        let colour = order.iter().map(|&old| colour_of[old as usize]).collect();
-        (order, colour)
+        (order, colour_of_position)
     }
 
     /// Angle constraints: by island (stable).
