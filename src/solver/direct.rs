@@ -42,7 +42,9 @@
 //! convergence check is one traversal of lengths — or none where the pass it follows is
 //! expected not to converge: the next forward traversal measures the residual on its way
 //! (`converges_next`). The elimination runs only when a pass follows, so a line its warm
-//! start already converged costs the check alone.
+//! start already converged costs the check alone. A line of one rigid stick skips all this
+//! where SHAKE applies: its equation is a quadratic, solved in closed form
+//! ([`lone_stick`](super::lone_stick)).
 //!
 //! One-sided sticks use an active set: a rope link is in the system while stretched, a strut
 //! while compressed; torn sticks and sticks between two immovable particles are never in it (a
@@ -290,6 +292,10 @@ impl LineSolve<'_, '_> {
     pub(crate) unsafe fn solve(&self, line: &LineRef) -> u32 {
         if line.sticks.is_empty() {
             return 0;
+        }
+        // SAFETY: this task alone holds the line (this function's contract).
+        if let Some(passes) = unsafe { self.solve_lone_stick(line) } {
+            return passes;
         }
         self.check(line);
         // SAFETY: this task alone holds the line (this function's contract), and its indices

@@ -554,7 +554,8 @@ impl Level {
             // (A slack stick — most of them in a hanging cloth — is passed over without a square
             // root. NaN lengths and masses are skipped: a NaN is never spread from here.)
             let max = stick.max_length;
-            if !(d.length_squared() > max * max) {
+            let stretched = d.length_squared() > max * max;
+            if !stretched {
                 continue;
             }
             let length = d.length();

@@ -81,6 +81,7 @@ pub mod hierarchy;
 mod integrate;
 pub mod islands;
 pub mod lines;
+pub mod lone_stick;
 pub mod parallel;
 mod particles;
 mod pins;
