@@ -166,8 +166,8 @@ fn two_hundred_link_chain_settles_with_bounded_stretch() {
 /// its pin. Untethered under `SolveMethod::Hierarchy` (coarse levels of long-range sticks
 /// before and after each sweep, the smaller levels projected more often): 29 % / 20 %, KE ≤
 /// 0.3 J in the last 2 s (0.003 % of the peak; every level projected once: 55 % / 31 %, bounds
-/// 1.0 / 0.4; before the sweep only: 88 % / 47 %). The first version also interpolated each coarse correction to the
-/// particles between the coarse ones (Müller 2008): 73 % / 31 % here with KE ≤ 15 J (0.13 %),
+/// 1.0 / 0.4; before the sweep only: 88 % / 47 %). The first version also interpolated each
+/// coarse correction to the particles between the coarse ones (Müller 2008): 73 % / 31 % here with KE ≤ 15 J (0.13 %),
 /// bounds 1.0 / 0.4 / 0.005 — but it put energy in: cloths of 10 × 10 to 30 × 30 on two corners
 /// and this one on its top row never settled (up to 100 % and 6.9 % of the peak). The flutter
 /// bound is 10⁻⁴ of the peak now (was 5·10⁻³). (Not asserted: with rigid shear sticks too, `.shear(0.0)`, 26 % / 17 % with two

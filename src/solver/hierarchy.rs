@@ -6,8 +6,8 @@
 //! mesh first. Here, before every sweep of an island solved by
 //! [`Method::Hierarchy`](super::Method::Hierarchy), from the coarsest level to the first, every
 //! level's *coarse sticks* are projected (the smaller levels several times: [`Level::passes`]),
-//! then the ordinary sweep runs over the fine sticks, then the levels above the first once
-//! more ([`AFTER_SWEEP_FROM_LEVEL`]). A coarse
+//! then the ordinary sweep runs over the fine sticks, then the levels above the first again,
+//! as many times each ([`AFTER_SWEEP_FROM_LEVEL`]). A coarse
 //! stick joins two particles a few fine sticks apart along a line of the mesh
 //! and only pulls: its ends may not be farther apart than the rest length of the path of rigid
 //! sticks between them — a bound the fine sticks imply (a path is never shorter than the
@@ -28,8 +28,8 @@
 //! ([`Level::passes`]), **29 % / 20 %** (`tests/hard_cases.rs`).
 //!
 //! The pass after the sweep (levels above the first): measured on cloths hung by two corners
-//! (8 × 1, 10 s, each level projected once then), 100 × 100: 88 % / 47 % → 55 % / 31 %; 50 × 50 (3 s): 42 % → 32 %; 40 × 40
-//! in the plugin: 21 % → 19 %; but 21 × 21: 7.1 % / 3.4 % → 10.9 % / 3.9 % and 12 × 12:
+//! (8 × 1, 10 s, each level projected once then), 100 × 100: 88 % / 47 % → 55 % / 31 %;
+//! 50 × 50 (3 s): 42 % → 32 %; 40 × 40 in the plugin: 21 % → 19 %; but 21 × 21: 7.1 % / 3.4 % → 10.9 % / 3.9 % and 12 × 12:
 //! 4.1 % / 1.5 % → 6.6 % / 2.2 % (small cloths, which need no hierarchy, lose a little); hung
 //! by the top row: about the same; every one settles. It costs 5–7 % of the step on the
 //! 100 × 100 (the first level, left out, holds three quarters of the coarse sticks; with it
@@ -518,7 +518,7 @@ impl Hierarchy {
 /// its load has to cross it whole — the more often, the fewer its sticks. On a grid, each level
 /// has about a quarter of the sticks of the one below, so the count about doubles per level
 /// from the third (100 × 100: 1, 1, 2, 3, 6, 10 and 18 passes for levels of 5100, 1300, 364,
-/// 112, 40, 12 and 4 sticks: 7896 projections of coarse sticks per pass instead of 6952). A
+/// 112, 40, 12 and 4 sticks: 7896 projections of coarse sticks per pass instead of 6932). A
 /// level that did not shrink (lines of one stick are kept whole on every level) is not
 /// projected more often than the one below: no level costs more than a projection of the first,
 /// and a repeated one at most a quarter of it.

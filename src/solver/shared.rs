@@ -37,7 +37,8 @@ pub(crate) struct SharedSlice<'a, T> {
 // no other task accesses that index meanwhile; `T: Send` values may be written from another
 // thread.
 unsafe impl<T: Send> Sync for SharedSlice<'_, T> {}
-// SAFETY: as above (the slice is borrowed mutably for `'a`, so nothing else can see it).
+// SAFETY: as above: copies share the exclusive borrow taken for `'a` (nothing outside them
+// sees the slice), and every access through any copy is an `unsafe fn` with that contract.
 unsafe impl<T: Send> Send for SharedSlice<'_, T> {}
 
 impl<'a, T: Copy> SharedSlice<'a, T> {
