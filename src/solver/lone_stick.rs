@@ -22,9 +22,16 @@
 //! (compliance, ropes, edits, fast turns) takes the general solve, and so do later rounds of the
 //! substep (iterations > 1) — along the start direction the closed form leaves in the scratch.
 //!
-//! Measured (callgrind, release, a 1 m pendulum released at 120°, 8 × 1, 6000 steps): 139.7 M
-//! instructions for the general solve, 104.2 M for this one, against 97.8 M swept — see the
-//! README's cost figures.
+//! The quadratic is solved along the start vector unnormalised (`λ = μ |u|`), which keeps the
+//! normalisation off the chain of dependent operations that moves the particles.
+//!
+//! Measured (release, a 1 m pendulum released at 120°, 8 × 1; scratch tests, not kept):
+//! callgrind over 6000 steps, 139.7 M instructions for the general solve, 104.2 M for this one
+//! with `r` normalised first, 105.2 M unnormalised, against 97.8 M swept; µs per step over
+//! 200 000 steps, 2.01–2.06 (general), 1.51–1.58 (normalised), 1.40–1.44 (unnormalised),
+//! against 1.27–1.36 swept; 1000 such pendulums (1000 islands), 725–737 µs per step
+//! normalised, 641–655 unnormalised, 505–509 swept (one run of each at 650 µs: the machine is
+//! shared).
 
 use super::StickKind;
 use super::direct::{LineMode, LineRef, LineSolve, SHAKE_MIN_COSINE, STABILISE_ABOVE};
@@ -54,33 +61,37 @@ impl LineSolve<'_, '_> {
             if !(applies && rest > 0.0 && movable > 0.0) {
                 return None;
             }
-            let at_start = self.previous.get(q) - self.previous.get(p);
-            let start_length = at_start.length();
+            // (Along the start vector `u` unnormalised, `λ = μ |u|`: the normalisation is off
+            // the chain of operations that moves the particles.)
+            let u = self.previous.get(q) - self.previous.get(p);
+            let start_length = u.length();
             let violated = (start_length - rest).abs() / rest;
             // (As short as `unit_and_length` gives a fixed direction: the general solve's.)
             let degenerate = start_length.is_nan() || start_length <= 1e-12;
             if degenerate || (self.stabilise && violated > STABILISE_ABOVE) {
                 return None;
             }
-            let start = at_start / start_length;
             let d = self.position.get(q) - self.position.get(p);
-            let (along, squared) = (d.dot(start), d.length_squared());
+            let (along, squared, uu) = (d.dot(u), d.length_squared(), u.length_squared());
+            let excess = squared - rest * rest;
             let cosine = SHAKE_MIN_COSINE;
-            let discriminant = along * along - squared + rest * rest;
-            if along < 0.0 || along * along < cosine * cosine * squared || discriminant < 0.0 {
+            let discriminant = along * along - uu * excess;
+            let turned = along * along < cosine * cosine * squared * uu;
+            if along < 0.0 || turned || discriminant < 0.0 {
                 return None;
             }
-            let lambda = (rest * rest - squared) / (movable * (along + discriminant.sqrt()));
+            let mu = -excess / (movable * (along + discriminant.sqrt()));
+            let lambda = mu * start_length;
             if !lambda.is_finite() {
                 return None;
             }
-            let step = start * lambda;
+            let step = u * mu;
             self.position.set(p, self.position.get(p) - step * wp);
             self.position.set(q, self.position.get(q) + step * wq);
             self.lambda.set(s, lambda);
             self.scratch.warm.set(line.offset, lambda);
             // (Later rounds of the substep solve the line by the general SHAKE from here.)
-            self.scratch.start.set(line.offset, start);
+            self.scratch.start.set(line.offset, u / start_length);
             self.scratch.mode.set(line.offset, LineMode::Shake);
             Some(1)
         }
