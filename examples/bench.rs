@@ -4,6 +4,7 @@
 //! cargo run --release --example bench -- cloth --cols 100 --rows 100 --steps 300 --iterations 6 --substeps 1
 //! cargo run --release --example bench -- rope --links 10000 --steps 300
 //! cargo run --release --example bench -- ragdolls --count 100 --steps 300
+//! cargo run --release --example bench -- ropes --count 1000 --links 1 --steps 300 --threads 1
 //! cargo run --release --example bench -- sleeping --count 100 --steps 120
 //! cargo run --release --example bench -- torn --substeps 8 --iterations 1 --steps 400
 //! ```
@@ -27,7 +28,8 @@
 //! `--threads N` runs the solver on N threads (`1`: serial; default: every core);
 //! `--tether-anchors N` sets `VerletConfig::tether_anchors` (scenes with tethers). `sleeping` lets
 //! `--count` ragdolls fall asleep, drops one more among them and compares its cost with that
-//! ragdoll dropped alone.
+//! ragdoll dropped alone. `ropes` hangs `--count` ropes of `--links` links of 1 cm side by side,
+//! each from a pin, released at 45° (many small islands: `--links 1` makes pendulums).
 
 use bevy::prelude::*;
 use bevy::tasks::ComputeTaskPool;
@@ -370,7 +372,7 @@ fn main() {
         Ok(options) => options,
         Err(message) => {
             eprintln!(
-                "{message}\nusage: bench [cloth|rope|ragdolls|sleeping|tearing|torn|avian] [--cols N --rows N | --links N | --count N] \
+                "{message}\nusage: bench [cloth|rope|ropes|ragdolls|sleeping|tearing|torn|avian] [--cols N --rows N | --links N | --count N] \
                  [--steps N] [--iterations N] [--substeps N] [--threads N] [--method auto|sweep|lines|hierarchy] [--corners 1]"
             );
             std::process::exit(2);
@@ -418,8 +420,20 @@ fn main() {
             app.insert_resource(Gravity::PIXELS);
             spawn(&mut app, |c| scenes::ragdolls(c, options.count));
         }
+        "ropes" => {
+            let length = options.links as f32 * 0.01;
+            spawn(&mut app, |c| {
+                for k in 0..options.count {
+                    let start = Vec3::new(k as f32 * 2.0 * length, 0.0, 0.0);
+                    let end = start + Vec3::new(1.0, -1.0, 0.0) * (length / 2f32.sqrt());
+                    RopeBuilder::new(start, end, options.links)
+                        .pin_start()
+                        .spawn(c);
+                }
+            });
+        }
         other => {
-            eprintln!("unknown scene {other}: cloth, rope, ragdolls or sleeping");
+            eprintln!("unknown scene {other}: cloth, rope, ropes, ragdolls or sleeping");
             std::process::exit(2);
         }
     }

@@ -129,15 +129,23 @@ impl Island {
     /// assert_eq!(island.config(&StepConfig::default()).substeps, 2);
     /// ```
     pub fn config(&self, step: &super::StepConfig) -> super::StepConfig {
-        let mut config = *step;
-        if let Some(settings) = self.settings {
-            config.substeps = settings.substeps;
-            config.iterations = settings.iterations;
-        }
-        config.substeps = config.substeps.max(1);
-        config.iterations = config.iterations.max(1);
-        config
+        configured(step, self.settings)
     }
+}
+
+/// `step` with `settings` applied, substeps and iterations at least 1 (see [`Island::config`]).
+pub(crate) fn configured(
+    step: &super::StepConfig,
+    settings: Option<IslandSettings>,
+) -> super::StepConfig {
+    let mut config = *step;
+    if let Some(settings) = settings {
+        config.substeps = settings.substeps;
+        config.iterations = settings.iterations;
+    }
+    config.substeps = config.substeps.max(1);
+    config.iterations = config.iterations.max(1);
+    config
 }
 
 /// The islands of the current topology.

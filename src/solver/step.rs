@@ -70,13 +70,25 @@ impl GlobalSubstep {
         if island.asleep {
             return None;
         }
-        let config = island.config(&self.config);
+        self.for_config(island.config(&self.config))
+    }
+
+    /// The substep an awake island of (clamped) `config` takes now, if any.
+    fn for_config(&self, config: StepConfig) -> Option<Substep> {
         let substeps = config.substeps;
         let count = self.count.max(substeps);
-        let j = self.index * substeps / count;
-        if j == (self.index - 1) * substeps / count {
-            return None;
-        }
+        // (An island that takes every global substep — most do — needs no division: it was
+        // 9 % of the instructions of a scene of 1000 pendulums, asked several times per
+        // substep per island.)
+        let j = if count == substeps {
+            self.index
+        } else {
+            let j = self.index * substeps / count;
+            if j == (self.index - 1) * substeps / count {
+                return None;
+            }
+            j
+        };
         let mut substep = config.substep_context(j);
         if self.plain {
             substep.accumulate = false;
@@ -248,9 +260,10 @@ impl Solver {
             let views = views(&mut taken);
             let particles = &self.particles;
             for_due_particles(&islands.list, global, executor, &|slots, substep| {
-                // SAFETY: `slots` is this job's part of one island's particles: parts of one
-                // range are disjoint, islands are disjoint (the layout matches the topology:
-                // `check_layout`), and each part runs once (`run_jobs`).
+                // SAFETY: `slots` is this job's part of the particles of one or more islands
+                // next to each other: parts of one range are disjoint, islands are disjoint
+                // (the layout matches the topology: `check_layout`), each island is in one
+                // range, and each part runs once (`run_jobs`).
                 let (position, previous) = unsafe {
                     (
                         views.position.part(slots.clone()),
@@ -307,8 +320,11 @@ impl Solver {
                     .iter()
                     .any(|b| b.independent)
         };
+        // (On one thread no island is big and there is one job: the passes over the islands
+        // that only size the parallel work are skipped.)
+        let parallel = threads > 1;
         let mut counters = 0;
-        for (island, substep) in due(&self.islands.list, global) {
+        for (island, substep) in due(&self.islands.list, global).filter(|_| parallel) {
             if big(island, &substep, &self.islands.batches) {
                 // (Batches, the rest, and a hierarchy's two coarse passes.)
                 let per_iteration = len(&island.batches) + 3;
@@ -322,7 +338,8 @@ impl Solver {
             let views = views(&mut taken);
             let is_big =
                 |island: &Island, substep: &Substep| big(island, substep, &islands.batches);
-            for (island, substep) in due(&islands.list, global).filter(|(i, s)| is_big(i, s)) {
+            let due_big = due(&islands.list, global).filter(|_| parallel);
+            for (island, substep) in due_big.filter(|(i, s)| is_big(i, s)) {
                 self.relax_island_parallel(&views, islands, island, &substep, executor);
             }
             // Small islands in groups of similar work, one group per job.
@@ -330,20 +347,22 @@ impl Solver {
                 len(&island.particles) + len(&island.sticks) * substep.iterations as usize
             };
             let small = || due(&islands.list, global).filter(|(i, s)| !is_big(i, s));
-            let total: usize = small().map(|(i, s)| work(i, &s)).sum();
+            let total: usize = small().filter(|_| parallel).map(|(i, s)| work(i, &s)).sum();
             let jobs = job_count(executor, total, PARALLEL_MIN_WORK_PER_JOB);
             let relax_group = |job: usize| {
-                let mut done = 0;
+                let (mut done, mut passes) = (0, 0);
                 for (island, substep) in small() {
                     // An island belongs to the job its first unit of work falls in.
-                    if done * jobs / total.max(1) == job {
+                    if jobs == 1 || done * jobs / total.max(1) == job {
                         // SAFETY: each island belongs to one job, each job runs once
                         // (`run_jobs`), islands share nothing (the layout matches the
                         // topology: `check_layout`), and the large islands ran before.
-                        unsafe { self.relax_island(&views, islands, island, &substep) };
+                        passes += unsafe { self.relax_island(&views, islands, island, &substep) };
                     }
                     done += work(island, &substep);
                 }
+                // (Counted once per job: an atomic add per island was measurable with many.)
+                self.line_passes.0.fetch_add(passes, Ordering::Relaxed);
             };
             run_jobs(executor, jobs, &relax_group);
         }
@@ -363,7 +382,8 @@ impl Solver {
             let particles = &self.particles;
             for_due_particles(&islands.list, global, executor, &|slots, substep| {
                 let gravity_step = substep.gravity.length() * substep.h * substep.h;
-                // SAFETY: as for the integration: this job's part of one island's particles.
+                // SAFETY: as for the integration: this job's part of one or more islands'
+                // particles.
                 let (position, previous) = unsafe {
                     (
                         views.position.part(slots.clone()),
@@ -470,7 +490,7 @@ impl Solver {
     }
 
     /// One island's relaxation on the calling thread: its sticks in order, then angles and
-    /// tethers, `iterations` times.
+    /// tethers, `iterations` times. Returns the Newton passes of its lines or tree.
     ///
     /// # Safety
     /// No other task accesses the island's particles, its sticks' and angle constraints'
@@ -481,12 +501,13 @@ impl Solver {
         islands: &super::Islands,
         island: &Island,
         substep: &Substep,
-    ) {
+    ) -> u64 {
+        let mut passes = 0;
         for round in 0..substep.iterations {
             // SAFETY: everything below belongs to this island, which this task holds (caller).
             unsafe {
                 if island.method == Method::Lines {
-                    self.solve_lines_of(views, islands, island, substep, round == 0);
+                    passes += self.solve_lines_of(views, islands, island, substep, round == 0);
                 } else {
                     self.solve_hierarchy_of(views, islands, island, 0);
                     for batch in &islands.batches[range(&island.batches)] {
@@ -497,6 +518,7 @@ impl Solver {
                 self.relax_rest_of(views, island, substep);
             }
         }
+        passes
     }
 
     /// An island's pass over its hierarchy's coarse levels from `first` up, if it has an active
@@ -523,7 +545,7 @@ impl Solver {
     }
 
     /// One round of an island's lines (group after group: block Gauss–Seidel over lines), then
-    /// its loose sticks.
+    /// its loose sticks. Returns the Newton passes taken.
     ///
     /// # Safety
     /// No other task accesses the island's particles, its sticks' and angle constraints'
@@ -535,7 +557,7 @@ impl Solver {
         island: &Island,
         substep: &Substep,
         first_round: bool,
-    ) {
+    ) -> u64 {
         let set = &islands.lines;
         if let Some(tree) = island.tree.and_then(|k| set.trees.trees.get(k as usize)) {
             let solve = TreeSolve {
@@ -552,12 +574,8 @@ impl Solver {
             let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
             // SAFETY: the tree's nodes, particles and sticks are the island's (the layout
             // matches the topology), which this task holds (caller).
-            let passes =
-                unsafe { solve.solve(&set.trees, tree, views.lines.trees.slice_mut(nodes)) };
-            self.line_passes
-                .0
-                .fetch_add(passes as u64, Ordering::Relaxed);
-            return;
+            return unsafe { solve.solve(&set.trees, tree, views.lines.trees.slice_mut(nodes)) }
+                as u64;
         }
         let solve = LineSolve {
             position: views.position,
@@ -584,12 +602,12 @@ impl Solver {
                 passes += unsafe { solve.solve(&LineRef::of(line, set)) } as u64;
             }
         }
-        self.line_passes.0.fetch_add(passes, Ordering::Relaxed);
         for &stick in &set.loose[range(&island.loose)] {
             let stick = stick as usize;
             // SAFETY: a stick of the island, which this task holds (caller).
             unsafe { self.relax_stick_part(views, substep, stick..stick + 1, false) };
         }
+        passes
     }
 
     /// One large island's relaxation on every thread of `executor`: colour batch after colour
@@ -797,21 +815,39 @@ fn views(taken: &mut Taken) -> Views<'_> {
     }
 }
 
-/// Runs `f(slots, substep)` over the particles of every due island, each island's range cut into
-/// near-equal parts across jobs when there are enough particles for every thread.
+/// Runs `f(slots, substep)` over the particles of every due island, each range cut into
+/// near-equal parts across jobs when there are enough particles for every thread. Islands next
+/// to each other in the particle arrays that take the same substep are passed as one range
+/// (`f` treats every particle alike): a scene of 1000 pendulums made 1000 calls per substep.
 fn for_due_particles(
     islands: &[Island],
     global: &GlobalSubstep,
     executor: &dyn Executor,
     f: &(dyn Fn(Range<usize>, &Substep) + Sync),
 ) {
+    // (One thread: one job, and no pass to size the work.)
     let work: usize = due(islands, global)
+        .filter(|_| executor.threads() > 1)
         .map(|(island, _)| len(&island.particles))
         .sum();
     let jobs = job_count(executor, work, PARALLEL_MIN_PARTICLES_PER_JOB);
     let job = |job: usize| {
+        let mut run: Option<(Range<usize>, Substep)> = None;
         for (island, substep) in due(islands, global) {
-            f(part(range(&island.particles), job, jobs), &substep);
+            let slots = range(&island.particles);
+            match &mut run {
+                Some((joined, same)) if joined.end == slots.start && *same == substep => {
+                    joined.end = slots.end;
+                }
+                _ => {
+                    if let Some((joined, substep)) = run.replace((slots, substep)) {
+                        f(part(joined, job, jobs), &substep);
+                    }
+                }
+            }
+        }
+        if let Some((joined, substep)) = run {
+            f(part(joined, job, jobs), &substep);
         }
     };
     run_jobs(executor, jobs, &job);
@@ -853,9 +889,17 @@ fn due<'a>(
     islands: &'a [Island],
     global: &'a GlobalSubstep,
 ) -> impl Iterator<Item = (&'a Island, Substep)> + 'a {
-    islands
-        .iter()
-        .filter_map(move |island| global.for_island(island).map(|s| (island, s)))
+    // (Islands without settings of their own all take the step's substep: computed once, not
+    // once per island — its division and `exp` were most of the cost of walking the islands.)
+    let shared = global.for_config(super::islands::configured(&global.config, None));
+    islands.iter().filter_map(move |island| {
+        let substep = match island.settings {
+            _ if island.asleep => None,
+            None => shared,
+            Some(_) => global.for_island(island),
+        };
+        substep.map(|s| (island, s))
+    })
 }
 
 fn range(r: &Range<u32>) -> Range<usize> {
