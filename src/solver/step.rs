@@ -263,7 +263,8 @@ impl Solver {
                 // SAFETY: `slots` is this job's part of the particles of one or more islands
                 // next to each other: parts of one range are disjoint, islands are disjoint
                 // (the layout matches the topology: `check_layout`), each island is in one
-                // range, and each part runs once (`run_jobs`).
+                // range — the same ranges in every job, which all build them from the same
+                // islands and substep — and each part runs once (`run_jobs`).
                 let (position, previous) = unsafe {
                     (
                         views.position.part(slots.clone()),
@@ -324,11 +325,13 @@ impl Solver {
         // that only size the parallel work are skipped.)
         let parallel = threads > 1;
         let mut counters = 0;
-        for (island, substep) in due(&self.islands.list, global).filter(|_| parallel) {
-            if big(island, &substep, &self.islands.batches) {
-                // (Batches, the rest, and a hierarchy's two coarse passes.)
-                let per_iteration = len(&island.batches) + 3;
-                counters = counters.max(2 * per_iteration * substep.iterations as usize);
+        if parallel {
+            for (island, substep) in due(&self.islands.list, global) {
+                if big(island, &substep, &self.islands.batches) {
+                    // (Batches, the rest, and a hierarchy's two coarse passes.)
+                    let per_iteration = len(&island.batches) + 3;
+                    counters = counters.max(2 * per_iteration * substep.iterations as usize);
+                }
             }
         }
         self.counters.ensure(counters);
@@ -338,16 +341,21 @@ impl Solver {
             let views = views(&mut taken);
             let is_big =
                 |island: &Island, substep: &Substep| big(island, substep, &islands.batches);
-            let due_big = due(&islands.list, global).filter(|_| parallel);
-            for (island, substep) in due_big.filter(|(i, s)| is_big(i, s)) {
-                self.relax_island_parallel(&views, islands, island, &substep, executor);
+            if parallel {
+                for (island, substep) in due(&islands.list, global).filter(|(i, s)| is_big(i, s)) {
+                    self.relax_island_parallel(&views, islands, island, &substep, executor);
+                }
             }
             // Small islands in groups of similar work, one group per job.
             let work = |island: &Island, substep: &Substep| {
                 len(&island.particles) + len(&island.sticks) * substep.iterations as usize
             };
             let small = || due(&islands.list, global).filter(|(i, s)| !is_big(i, s));
-            let total: usize = small().filter(|_| parallel).map(|(i, s)| work(i, &s)).sum();
+            let total: usize = if parallel {
+                small().map(|(i, s)| work(i, &s)).sum()
+            } else {
+                0
+            };
             let jobs = job_count(executor, total, PARALLEL_MIN_WORK_PER_JOB);
             let relax_group = |job: usize| {
                 let (mut done, mut passes) = (0, 0);
@@ -826,10 +834,13 @@ fn for_due_particles(
     f: &(dyn Fn(Range<usize>, &Substep) + Sync),
 ) {
     // (One thread: one job, and no pass to size the work.)
-    let work: usize = due(islands, global)
-        .filter(|_| executor.threads() > 1)
-        .map(|(island, _)| len(&island.particles))
-        .sum();
+    let work: usize = if executor.threads() > 1 {
+        due(islands, global)
+            .map(|(island, _)| len(&island.particles))
+            .sum()
+    } else {
+        0
+    };
     let jobs = job_count(executor, work, PARALLEL_MIN_PARTICLES_PER_JOB);
     let job = |job: usize| {
         let mut run: Option<(Range<usize>, Substep)> = None;
