@@ -4,21 +4,35 @@
 // substep directions, warm start from the last substep's multipliers, Newton passes (Thomas)
 // until max |C|/L <= 1e-9, at most 3 passes and each must divide the error by 10, skipped when a
 // link's predicted turn has cosine < 0.99 or in the substep after a failure. Fallbacks compared:
-//   project : Newton on the position projection (current directions) from the prediction, as the
-//             crate does (up to 32 passes);
-//   halve   : the substep re-run as two half substeps, each with SHAKE (their own fallback: the
-//             projection), the Verlet state converted to h/2 and back.
-// Prints Newton passes, substeps by kind, the largest link strain and the energy lost of what
-// the fall released.  gcc -O2 whip_substep.c -lm && ./a.out
+//   project  : Newton on the position projection (current directions, no curvature of the
+//              constraints: Gauss-Newton) from the prediction, lambda = 0, as the crate does;
+//   halve    : the substep re-run as two half substeps, each with SHAKE (their own fallback: the
+//              projection), the Verlet state converted to h/2 and back;
+//   kkt      : full Newton on the projection's KKT system, M(x - x~) = J^T lambda, C(x) = 0,
+//              with the constraints' curvature (lambda_k (I - n n^T)/d_k blocks): per particle
+//              a node (x_j, lambda_{j-1}), block tridiagonal with 3x3 blocks (4x4 in 3D), solved
+//              by block Thomas; lambda = 0 to start;
+//   kkt-warm : the same, lambda starting from the last substep's multipliers.
+// Prints Newton passes (and those spent projecting), substeps by kind, the largest link strain,
+// the energy lost of what the fall released and the CPU time (the 3x3 blocks are inverted
+// naively: a KKT pass costs several scalar passes here).
+//   gcc -O2 whip_substep.c -lm -o whip_substep && ./whip_substep
+//   gcc -O2 -DN=200 -DTIP=1.0 whip_substep.c -lm -o whip200 && ./whip200   (the 200-link chain)
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
+#ifndef N
 #define N 100
+#endif
+#ifndef TIP
+#define TIP 1000.0
+#endif
 typedef struct { double x, y; } V;
 static V x[N + 1], xp[N + 1], r[N];
 static double w[N + 1], lam[N], warm[N];
 static const double L = 0.01, G = 9.81, TOL = 1e-9;
-static long passes, shake_ok, shake_failed, projected, halved;
+static long passes, proj_passes, shake_ok, shake_failed, projected, halved;
 
 static double energy(double h) {
   double e = 0;
@@ -110,9 +124,129 @@ static int shake(double warm_scale) {
 }
 static void project(void) {
   memset(lam, 0, sizeof lam);
-  for (int k = 0; k < 32 && err() > TOL; k++) pass(0);
+  for (int k = 0; k < 32 && err() > TOL; k++) { pass(0); proj_passes++; }
+}
+
+// 3x3 helpers (row-major).
+typedef struct { double m[3][3]; } M3;
+static M3 m3inv(M3 a) {
+  M3 r;
+  double det = a.m[0][0] * (a.m[1][1] * a.m[2][2] - a.m[1][2] * a.m[2][1]) -
+               a.m[0][1] * (a.m[1][0] * a.m[2][2] - a.m[1][2] * a.m[2][0]) +
+               a.m[0][2] * (a.m[1][0] * a.m[2][1] - a.m[1][1] * a.m[2][0]);
+  double id = 1 / det;
+  r.m[0][0] = (a.m[1][1] * a.m[2][2] - a.m[1][2] * a.m[2][1]) * id;
+  r.m[0][1] = (a.m[0][2] * a.m[2][1] - a.m[0][1] * a.m[2][2]) * id;
+  r.m[0][2] = (a.m[0][1] * a.m[1][2] - a.m[0][2] * a.m[1][1]) * id;
+  r.m[1][0] = (a.m[1][2] * a.m[2][0] - a.m[1][0] * a.m[2][2]) * id;
+  r.m[1][1] = (a.m[0][0] * a.m[2][2] - a.m[0][2] * a.m[2][0]) * id;
+  r.m[1][2] = (a.m[0][2] * a.m[1][0] - a.m[0][0] * a.m[1][2]) * id;
+  r.m[2][0] = (a.m[1][0] * a.m[2][1] - a.m[1][1] * a.m[2][0]) * id;
+  r.m[2][1] = (a.m[0][1] * a.m[2][0] - a.m[0][0] * a.m[2][1]) * id;
+  r.m[2][2] = (a.m[0][0] * a.m[1][1] - a.m[0][1] * a.m[1][0]) * id;
+  return r;
+}
+static M3 m3mul(M3 a, M3 b) {
+  M3 r;
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++) {
+      r.m[i][j] = 0;
+      for (int k = 0; k < 3; k++) r.m[i][j] += a.m[i][k] * b.m[k][j];
+    }
+  return r;
+}
+static void m3vec(M3 a, const double *v, double *out) {
+  for (int i = 0; i < 3; i++) out[i] = a.m[i][0] * v[0] + a.m[i][1] * v[1] + a.m[i][2] * v[2];
+}
+static V xt[N + 1]; // the prediction (projection target)
+// One Newton pass on the projection's KKT system with the constraints' curvature (lambda H):
+// node j = (x_j, lambda_{j-1}), j = 1..N, block tridiagonal with 3x3 blocks.
+static void kkt_pass(void) {
+  static V n[N];
+  static double d[N];
+  static M3 A[N + 1], U[N + 1], Lo[N + 1];
+  static double rhs[N + 1][3], sol[N + 1][3];
+  for (int i = 0; i < N; i++) {
+    double dx = x[i + 1].x - x[i].x, dy = x[i + 1].y - x[i].y;
+    d[i] = hypot(dx, dy);
+    n[i] = (V){dx / d[i], dy / d[i]};
+  }
+  for (int j = 1; j <= N; j++) {
+    double m = 1 / w[j];
+    // P/d scaled by lambda, for stick j-1 (before) and j (after).
+    double pb[2][2], pa[2][2] = {{0, 0}, {0, 0}};
+    V nb = n[j - 1];
+    double lb = lam[j - 1] / d[j - 1];
+    pb[0][0] = lb * (1 - nb.x * nb.x); pb[0][1] = lb * (-nb.x * nb.y);
+    pb[1][0] = pb[0][1]; pb[1][1] = lb * (1 - nb.y * nb.y);
+    if (j < N) {
+      V na = n[j];
+      double la = lam[j] / d[j];
+      pa[0][0] = la * (1 - na.x * na.x); pa[0][1] = la * (-na.x * na.y);
+      pa[1][0] = pa[0][1]; pa[1][1] = la * (1 - na.y * na.y);
+    }
+    M3 a = {{{m - pb[0][0] - pa[0][0], -pb[0][1] - pa[0][1], -nb.x},
+             {-pb[1][0] - pa[1][0], m - pb[1][1] - pa[1][1], -nb.y},
+             {nb.x, nb.y, 0}}};
+    A[j] = a;
+    M3 u = {{{0}}};
+    if (j < N) {
+      u.m[0][0] = pa[0][0]; u.m[0][1] = pa[0][1]; u.m[0][2] = n[j].x;
+      u.m[1][0] = pa[1][0]; u.m[1][1] = pa[1][1]; u.m[1][2] = n[j].y;
+    }
+    U[j] = u;
+    M3 lo = {{{0}}};
+    if (j > 1) {
+      lo.m[0][0] = pb[0][0]; lo.m[0][1] = pb[0][1];
+      lo.m[1][0] = pb[1][0]; lo.m[1][1] = pb[1][1];
+      lo.m[2][0] = -nb.x; lo.m[2][1] = -nb.y;
+    }
+    Lo[j] = lo;
+    // -F_j and -C_{j-1}
+    double fx = m * (x[j].x - xt[j].x) - lam[j - 1] * nb.x, fy = m * (x[j].y - xt[j].y) - lam[j - 1] * nb.y;
+    if (j < N) { fx += lam[j] * n[j].x; fy += lam[j] * n[j].y; }
+    rhs[j][0] = -fx; rhs[j][1] = -fy; rhs[j][2] = -(d[j - 1] - L);
+  }
+  // Block Thomas: D_j = A_j - Lo_j D_{j-1}^-1 U_{j-1}.
+  static M3 Dinv[N + 1];
+  static double y[N + 1][3];
+  for (int j = 1; j <= N; j++) {
+    M3 D = A[j];
+    double r[3] = {rhs[j][0], rhs[j][1], rhs[j][2]};
+    if (j > 1) {
+      M3 t = m3mul(Lo[j], m3mul(Dinv[j - 1], U[j - 1]));
+      for (int a = 0; a < 3; a++) for (int b = 0; b < 3; b++) D.m[a][b] -= t.m[a][b];
+      double ly[3];
+      M3 LD = m3mul(Lo[j], Dinv[j - 1]);
+      m3vec(LD, y[j - 1], ly);
+      for (int a = 0; a < 3; a++) r[a] -= ly[a];
+    }
+    Dinv[j] = m3inv(D);
+    for (int a = 0; a < 3; a++) y[j][a] = r[a];
+  }
+  for (int j = N; j >= 1; j--) {
+    double r[3] = {y[j][0], y[j][1], y[j][2]};
+    if (j < N) {
+      double us[3];
+      m3vec(U[j], sol[j + 1], us);
+      for (int a = 0; a < 3; a++) r[a] -= us[a];
+    }
+    m3vec(Dinv[j], r, sol[j]);
+  }
+  for (int j = 1; j <= N; j++) {
+    x[j].x += sol[j][0]; x[j].y += sol[j][1];
+    lam[j - 1] += sol[j][2];
+  }
+  passes++;
+}
+static int kkt_warm;
+static void project_kkt(void) {
+  memcpy(xt, x, sizeof xt);
+  if (kkt_warm) memcpy(lam, warm, sizeof lam); else memset(lam, 0, sizeof lam);
+  for (int k = 0; k < 32 && err() > TOL; k++) { kkt_pass(); proj_passes++; }
 }
 static int fell_back;
+static int use_kkt;
 // One substep of length h; mode 0: project on failure, 1: halve on failure.
 static void substep(double h, int mode, int depth) {
   V x0[N + 1], xp0[N + 1];
@@ -138,27 +272,31 @@ static void substep(double h, int mode, int depth) {
     return;
   }
   projected++;
-  project();
+  if (use_kkt) project_kkt(); else project();
   memcpy(warm, lam, sizeof warm);
   if (depth == 0) fell_back = (ok == 0);
 }
 int main(void) {
   const double h = 1.0 / 64 / 8;
-  for (int mode = 0; mode < 2; mode++) {
+  for (int mode = 0; mode < 4; mode++) {
+    use_kkt = mode >= 2;
+    kkt_warm = mode == 3;
     for (int i = 0; i <= N; i++) { x[i] = (V){i * L, 0}; xp[i] = x[i]; w[i] = 1; }
-    w[0] = 0; w[N] = 1.0 / 1000;
+    w[0] = 0; w[N] = 1.0 / TIP;
     memset(warm, 0, sizeof warm);
-    passes = shake_ok = shake_failed = projected = halved = 0; fell_back = 0;
+    passes = proj_passes = shake_ok = shake_failed = projected = halved = 0; fell_back = 0;
     double e0 = energy(h), floor = 0, strain = 0;
+    clock_t t0 = clock();
     for (int i = 1; i <= N; i++) floor -= G * (i * L) / w[i]; // hanging straight down
     for (int s = 0; s < 64 * 5 * 8; s++) {
-      substep(h, mode, 0);
+      substep(h, mode == 1, 0);
       strain = fmax(strain, err());
     }
     double e = energy(h);
-    printf("%-8s passes %6ld (SHAKE ok %ld, failed %ld, projected %ld, halved %ld) max strain %.1e, energy lost %.1f %% of the fall's\n",
-           mode ? "halve" : "project", passes, shake_ok, shake_failed, projected, halved, strain,
-           100 * (e0 - e) / (e0 - floor));
+    double cpu = (double)(clock() - t0) / CLOCKS_PER_SEC;
+    printf("%-8s passes %6ld, %ld of them projecting (SHAKE ok %ld, failed %ld, projected %ld, halved %ld) max strain %.1e, energy lost %.1f %% of the fall's, %.0f ms CPU\n",
+           mode == 3 ? "kkt-warm" : mode == 2 ? "kkt" : mode ? "halve" : "project", passes, proj_passes, shake_ok, shake_failed, projected, halved, strain,
+           100 * (e0 - e) / (e0 - floor), 1e3 * cpu);
   }
   return 0;
 }
