@@ -907,7 +907,7 @@ fn due<'a>(
         let substep = match island.settings {
             _ if island.asleep => None,
             None => shared,
-            Some(_) => global.for_island(island),
+            Some(_) => global.for_config(island.config(&global.config)),
         };
         substep.map(|s| (island, s))
     })
