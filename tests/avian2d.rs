@@ -1,6 +1,7 @@
 //! The avian2d integration, headless (`cargo test --features avian2d`): particles resting on
 //! avian colliders, a rope pendulum with a dynamic avian bob against the rigid pendulum's period,
-//! momentum in a particle–body collision, no tunnelling, layers, and two-way attachments.
+//! momentum in a particle–body collision, no tunnelling, layers, two-way attachments, and avian's
+//! `ColliderDisabled`, `RigidBodyDisabled`, `CollisionMargin` and body `Friction` respected.
 
 use avian2d::prelude::*;
 use bevy::prelude::*;
@@ -625,5 +626,224 @@ fn a_particle_off_the_z_plane_still_collides() {
     assert!(
         (x.y - 0.15).abs() < 1e-3 && x.z == 3.0,
         "the particle is at {x}"
+    );
+}
+
+/// Drops a 5 cm particle from y = 0.5 onto a 1 m × 0.2 m box at the origin spawned with
+/// `extra` and returns the particle's height after a second (0.15 on the box, far below it
+/// without).
+fn land_on_box(extra: impl Bundle) -> f32 {
+    let mut app = app(Vec2::new(0.0, -9.81));
+    spawn(
+        &mut app,
+        (RigidBody::Static, Collider::rectangle(1.0, 0.2), extra),
+    );
+    let p = spawn(
+        &mut app,
+        Particle::new(Vec3::new(0.0, 0.5, 0.0)).with_radius(0.05),
+    );
+    step(&mut app, 64);
+    particle(&app, p).position.y
+}
+
+#[test]
+fn disabled_colliders_and_bodies_let_particles_through() {
+    // As in avian: a `ColliderDisabled` collider detects nothing, and contacts with a body that
+    // has `RigidBodyDisabled` get no response.
+    let plain = land_on_box(());
+    let collider_disabled = land_on_box(ColliderDisabled);
+    let body_disabled = land_on_box(RigidBodyDisabled);
+    println!(
+        "height after 1 s: {plain} on a box, {collider_disabled} (ColliderDisabled), {body_disabled} (RigidBodyDisabled)"
+    );
+    assert!((plain - 0.15).abs() < 1e-3, "rests on the box: {plain}");
+    for y in [collider_disabled, body_disabled] {
+        assert!(y < -4.0, "fell through the disabled box: y = {y}");
+    }
+}
+
+#[test]
+fn re_enabling_a_collider_catches_the_particles_again() {
+    // A disabled platform at y = 1 and a disabled ground at y = 0: the particle passes the
+    // platform, then the ground is enabled again and catches it.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let disabled_box = |y: f32| {
+        let shape = Collider::rectangle(4.0, 0.2);
+        (
+            RigidBody::Static,
+            shape,
+            ColliderDisabled,
+            Transform::from_xyz(0.0, y, 0.0),
+        )
+    };
+    spawn(&mut app, disabled_box(1.0));
+    let ground = spawn(&mut app, disabled_box(0.0));
+    let p = spawn(
+        &mut app,
+        Particle::new(Vec3::new(0.0, 2.0, 0.0)).with_radius(0.05),
+    );
+    step(&mut app, 32);
+    let passed = particle(&app, p).position.y;
+    app.world_mut()
+        .entity_mut(ground)
+        .remove::<ColliderDisabled>();
+    step(&mut app, 120);
+    let y = particle(&app, p).position.y;
+    println!("below the disabled platform at y = {passed}; on the re-enabled ground at y = {y}");
+    assert!(passed < 0.9, "passed the disabled platform: y = {passed}");
+    assert!((y - 0.15).abs() < 1e-3, "rests on the ground: y = {y}");
+}
+
+#[test]
+fn an_attachment_to_a_disabled_body_holds_nothing() {
+    // avian disables a disabled body's joints: the attached particle falls, the body stays.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let body = spawn(
+        &mut app,
+        (
+            RigidBody::Dynamic,
+            Collider::rectangle(0.2, 0.2),
+            RigidBodyDisabled,
+            Transform::from_xyz(0.0, 0.0, 0.0),
+        ),
+    );
+    let p = spawn(
+        &mut app,
+        (
+            Particle::new(Vec3::new(0.3, 0.0, 0.0)).with_radius(0.01),
+            BodyAttachment::new(body, Vec2::new(0.3, 0.0)),
+        ),
+    );
+    step(&mut app, 32);
+    let y = particle(&app, p).position.y;
+    let at = app.world().get::<Position>(body).unwrap().0;
+    println!("particle at y = {y}, body at {at}");
+    assert!(y < -1.0, "the particle fell freely: y = {y}");
+    assert!(at.length() < 1e-6, "the disabled body stayed: {at}");
+}
+
+#[test]
+fn a_collision_margin_thickens_the_collider() {
+    // avian's `CollisionMargin` adds thickness around a shape: the particle rests on the box
+    // top (0.1) plus the margin plus its radius. A body's margin serves its colliders that
+    // have none (a child collider here), as in avian's narrow phase.
+    let own = land_on_box(CollisionMargin(0.1));
+    let mut app = app(Vec2::new(0.0, -9.81));
+    app.world_mut()
+        .spawn((
+            RigidBody::Static,
+            CollisionMargin(0.2),
+            Transform::default(),
+        ))
+        .with_child((Collider::rectangle(1.0, 0.2), Transform::default()));
+    let p = spawn(
+        &mut app,
+        Particle::new(Vec3::new(0.0, 0.5, 0.0)).with_radius(0.05),
+    );
+    step(&mut app, 64);
+    let inherited = particle(&app, p).position.y;
+    println!("rests at {own} (own margin 0.1), {inherited} (the body's margin 0.2)");
+    assert!((own - 0.25).abs() < 1e-3, "own margin: {own}");
+    assert!(
+        (inherited - 0.35).abs() < 1e-3,
+        "the body's margin: {inherited}"
+    );
+}
+
+#[test]
+fn a_body_lends_its_friction_to_colliders_without_one() {
+    // A particle on a 35° slope (tan 0.70): the coupling's default friction (0.5) lets it
+    // slide; the body's `Friction` of 1.0, on a child collider without one, holds it (avian's
+    // narrow phase falls back to the body's friction the same way) until it sleeps. (Kept
+    // awake it creeps ~1 cm/s on a slope this steep: the contacts' friction acts on positions.)
+    let slide = |body_friction: Option<f32>| {
+        let mut app = app(Vec2::new(0.0, -9.81));
+        let turn = Quat::from_rotation_z(35f32.to_radians());
+        let mut body = app
+            .world_mut()
+            .spawn((RigidBody::Static, Transform::from_rotation(turn)));
+        if let Some(f) = body_friction {
+            body.insert(Friction::new(f));
+        }
+        body.with_child((Collider::rectangle(4.0, 0.2), Transform::default()));
+        let normal = turn * Vec3::Y;
+        let p = spawn(&mut app, Particle::new(normal * 0.16).with_radius(0.05));
+        step(&mut app, 64);
+        let start = particle(&app, p).position;
+        step(&mut app, 64);
+        (particle(&app, p).position - start).length()
+    };
+    let (loose, held) = (slide(None), slide(Some(1.0)));
+    println!("moved over 1 s: {loose} m with the default friction, {held} m with the body's");
+    assert!(loose > 0.5, "slides with friction 0.5: {loose}");
+    assert!(held < 1e-3, "held by the body's friction: {held}");
+}
+
+#[test]
+fn a_collider_spawned_or_moved_into_a_sleeping_rope_wakes_it() {
+    // A rope hangs asleep from a pin beside a static box; the box stays put for a second (the
+    // rope sleeps on), then is moved into the rope: the rope wakes and is pushed aside. A box
+    // spawned into a second sleeping rope wakes that one too.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let rope_at = |app: &mut App, x: f32| {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::new(x, 1.0, 0.0), Vec3::new(x, 0.5, 0.0), 5)
+            .radius(0.02)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope.particles[5]
+    };
+    let (moved_into, spawned_into) = (rope_at(&mut app, 0.0), rope_at(&mut app, 2.0));
+    let wall = spawn(
+        &mut app,
+        (
+            RigidBody::Static,
+            Collider::rectangle(0.1, 0.4),
+            // (Within the rope's bounds but clear of its particles: gathered every step.)
+            Transform::from_xyz(0.1, 0.6, 0.0),
+        ),
+    );
+    step(&mut app, 256);
+    let asleep = |app: &App, p: Entity| app.world().resource::<VerletState>().is_sleeping(p);
+    assert!(
+        asleep(&app, moved_into) && asleep(&app, spawned_into),
+        "the ropes fell asleep"
+    );
+    let gathered = app.world().resource::<AvianCouplingStats>().colliders;
+    assert_eq!(
+        gathered, 1,
+        "the wall beside the rope is gathered (and does not wake it)"
+    );
+    let before = (
+        particle(&app, moved_into).position,
+        particle(&app, spawned_into).position,
+    );
+    app.world_mut()
+        .entity_mut(wall)
+        .insert(Transform::from_xyz(0.03, 0.6, 0.0));
+    spawn(
+        &mut app,
+        (
+            RigidBody::Static,
+            Collider::rectangle(0.1, 0.4),
+            Transform::from_xyz(2.03, 0.6, 0.0),
+        ),
+    );
+    step(&mut app, 4);
+    let pushed = (
+        (particle(&app, moved_into).position - before.0).length(),
+        (particle(&app, spawned_into).position - before.1).length(),
+    );
+    println!("rope ends pushed {pushed:?} m");
+    assert!(
+        pushed.0 > 0.01,
+        "the moved box pushed its rope: {} m",
+        pushed.0
+    );
+    assert!(
+        pushed.1 > 0.01,
+        "the spawned box pushed its rope: {} m",
+        pushed.1
     );
 }

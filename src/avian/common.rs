@@ -38,6 +38,8 @@ pub struct VerletAvianPlugin;
 /// Fixes a particle to a point of an avian rigid body, both ways: a dynamic body drags the
 /// particle and the particle's constraints pull the body (with its mass and inertia); a static
 /// or kinematic body carries the particle like a moving pin. Put it on the particle's entity.
+/// While the body has avian's `RigidBodyDisabled` the attachment holds nothing (avian disables
+/// a disabled body's joints).
 ///
 /// ```
 /// use bevy::prelude::*;
@@ -164,6 +166,12 @@ struct Coupled {
     frozen: bool,
     /// The particle entity of each attachment (same order as the core's list).
     attached: Vec<Entity>,
+    /// Per gathered collider: spawned or moved since the last step (it wakes the sleeping
+    /// islands it touches, as a moving body's colliders do).
+    placed_anew: Vec<bool>,
+    /// The pose of each collider gathered in the last step, and in this one. (Poses are
+    /// compared, not change ticks: avian rewrites a child collider's `Position` every step.)
+    collider_poses: [EntityHashMap<Pose>; 2],
     /// Each attached particle's last pull direction, kept across steps (the effective mass).
     pull: EntityHashMap<DVec3>,
 }
@@ -223,7 +231,7 @@ type BodyData = (
 /// The components a collider contributes.
 type ColliderData = (
     Entity,
-    &'static Collider,
+    Ref<'static, Collider>,
     &'static Position,
     &'static Rotation,
     &'static ColliderAabb,
@@ -231,7 +239,11 @@ type ColliderData = (
     Option<&'static CollisionLayers>,
     Option<&'static Friction>,
     Option<&'static Restitution>,
+    Option<&'static CollisionMargin>,
 );
+
+/// What a rigid body lends its colliders that have none of their own (as avian does).
+type BodySurface = (Option<&'static Friction>, Option<&'static CollisionMargin>);
 
 /// Fills the coupled world for this step: bodies with attachments, colliders whose bounds touch
 /// an island's bounds (with their bodies), particle layers and materials.
@@ -245,7 +257,9 @@ fn gather(
     time: Res<Time>,
     physics_time: Res<Time<Physics>>,
     bodies: Query<BodyData>,
-    colliders: Query<ColliderData, Without<Sensor>>,
+    disabled: Query<(), With<RigidBodyDisabled>>,
+    surfaces: Query<BodySurface, With<RigidBody>>,
+    colliders: Query<ColliderData, (Without<Sensor>, Without<ColliderDisabled>)>,
     attachments: Query<(Entity, &BodyAttachment), With<Particle>>,
     layered: Query<(Entity, &CollisionLayers, Option<&Composite>), Without<Collider>>,
     materials: Query<MaterialData, OwnMaterial>,
@@ -258,6 +272,8 @@ fn gather(
     if !colliders.is_empty() || !attachments.is_empty() {
         let world = AvianBodies {
             bodies: &bodies,
+            disabled: &disabled,
+            surfaces: &surfaces,
             gravity: to_d(gravity.0),
             frozen: coupled.frozen,
         };
@@ -278,6 +294,10 @@ fn gather(
 /// The avian bodies and gravity, as `gather` reads them.
 struct AvianBodies<'a, 'w, 's> {
     bodies: &'a Query<'w, 's, BodyData>,
+    /// Bodies with avian's `RigidBodyDisabled`: avian gives their contacts and joints no
+    /// response, so particles pass through their colliders and their attachments hold nothing.
+    disabled: &'a Query<'w, 's, (), With<RigidBodyDisabled>>,
+    surfaces: &'a Query<'w, 's, BodySurface, With<RigidBody>>,
     gravity: DVec3,
     /// avian is paused: every body is static.
     frozen: bool,
@@ -295,6 +315,9 @@ impl Coupled {
         self.body_centres.clear();
         self.body_index.clear();
         self.attached.clear();
+        self.placed_anew.clear();
+        self.collider_poses.swap(0, 1);
+        self.collider_poses[1].clear();
     }
 
     /// The index of `entity`'s proxy, adding it if it is an avian rigid body.
@@ -340,6 +363,9 @@ fn gather_attachments(
         let Some(slot) = state.slot(particle) else {
             continue;
         };
+        if world.disabled.contains(attachment.body) {
+            continue; // (avian disables a disabled body's joints too)
+        }
         if state.solver.particles.inverse_mass[slot as usize] <= 0.0 {
             state.warn(particle, Problem::Attachment, || {
                 "BodyAttachment on a pinned or massless particle is ignored".to_string()
@@ -367,14 +393,26 @@ fn gather_attachments(
 fn gather_colliders(
     coupled: &mut Coupled,
     world: &AvianBodies,
-    colliders: &Query<ColliderData, Without<Sensor>>,
+    colliders: &Query<ColliderData, (Without<Sensor>, Without<ColliderDisabled>)>,
     coupling: &AvianCoupling,
     step: f64,
 ) {
-    for (_, collider, position, rotation, aabb, of, layers, friction, restitution) in colliders {
+    for (entity, collider, position, rotation, aabb, of, layers, friction, restitution, margin) in
+        colliders
+    {
+        if of.is_some_and(|of| world.disabled.contains(of.body)) {
+            continue;
+        }
+        // Friction and margin fall back to the body's, as in avian's narrow phase.
+        let (body_friction, body_margin) = of
+            .and_then(|of| world.surfaces.get(of.body).ok())
+            .unwrap_or_default();
+        let (friction, margin) = (friction.or(body_friction), margin.or(body_margin));
+        let margin = f64::from(margin.map_or(0.0, |m| m.0)).max(0.0);
         let body = of.and_then(|of| world.bodies.get(of.body).ok());
         let moving = body.map(|data| proxy(data, world.gravity));
         let (lo, hi) = swept_bounds(aabb, moving.as_ref(), step);
+        let (lo, hi) = (lo - margin, hi + margin);
         if !coupled.island_bounds.iter().any(|&island| overlaps((lo, hi), island)) {
             continue;
         }
@@ -386,13 +424,19 @@ fn gather_colliders(
             .and_then(|of| coupled.add_body(world, of.body))
             .unwrap_or_else(|| coupled.add_static(pose));
         let body_pose = coupled.external.bodies[index as usize].pose();
+        let [last, now] = &mut coupled.collider_poses;
+        coupled
+            .placed_anew
+            .push(collider.is_added() || last.get(&entity) != Some(&pose));
+        now.insert(entity, pose);
         coupled.external.colliders.push(ExternalCollider {
-            shape: AvianShape(collider.clone()),
+            shape: AvianShape(Collider::clone(&collider)),
             body: index,
             local: body_pose.relative(pose),
             restitution: f64::from(restitution.map_or(coupling.restitution, |r| r.coefficient)),
             friction: f64::from(friction.map_or(coupling.friction, |f| f.dynamic_coefficient)),
             layers: layers.map_or_else(Layers::default, |l| to_layers(*l)),
+            margin,
         });
     }
 }
@@ -561,9 +605,10 @@ fn wake_touched(state: &mut VerletState, coupled: &Coupled) {
         }
         let (lo, hi) = coupled.island_bounds[index];
         let range = state.solver.islands.list[index].particles.clone();
-        // The cheap test first: only a moving body's collider needs its bounds.
-        let touched = external.colliders.iter().any(|c| {
-            moving(&external.bodies[c.body as usize])
+        // The cheap test first: only a moving or newly placed collider needs its bounds.
+        let colliders = external.colliders.iter().zip(&coupled.placed_anew);
+        let touched = colliders.into_iter().any(|(c, &anew)| {
+            (anew || moving(&external.bodies[c.body as usize]))
                 && overlaps(c.shape.bounds(c.pose(&external.bodies)), (lo, hi))
         }) || external.attachments.iter().any(|a| {
             range.contains(&a.particle) && moving(&external.bodies[a.body as usize])

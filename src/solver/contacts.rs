@@ -107,6 +107,9 @@ pub struct ExternalCollider<S> {
     pub friction: f64,
     /// Collision layers.
     pub layers: Layers,
+    /// Extra thickness around the shape (avian's `CollisionMargin`): a particle meets the
+    /// surface at its radius plus this.
+    pub margin: f64,
 }
 
 impl<S> ExternalCollider<S> {
@@ -162,7 +165,10 @@ pub fn collide_particle<S: ContactShape>(
         return false;
     }
     let mut touched = false;
+    let particle_radius = radius;
     for (collider, &(pose, lo, hi)) in colliders.iter().zip(placed) {
+        // (A margin thickens the collider: the particle meets it as if that much larger.)
+        let radius = particle_radius + collider.margin;
         let (swept_lo, swept_hi) = (position.min(*previous), position.max(*previous));
         if !overlaps((swept_lo - radius, swept_hi + radius), (lo, hi))
             || !particle.layers.interacts_with(collider.layers)
@@ -335,6 +341,7 @@ mod tests {
             restitution: 0.5,
             friction: 0.2,
             layers: Layers::default(),
+            margin: 0.0,
         }
     }
 

@@ -215,7 +215,7 @@ impl<S: ContactShape> External<S> {
     }
 
     /// Each collider's pose and bounds for this substep, and the bounds of them all (grown by
-    /// the largest particle radius) for the particles' first, cheap test.
+    /// their margins and the largest particle radius) for the particles' first, cheap test.
     fn place_colliders(&mut self) {
         self.placed.clear();
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
@@ -223,7 +223,8 @@ impl<S: ContactShape> External<S> {
             let pose = collider.pose(&self.bodies);
             let (a, b) = collider.shape.bounds(pose);
             self.placed.push((pose, a, b));
-            (lo, hi) = (lo.min(a), hi.max(b));
+            let margin = collider.margin;
+            (lo, hi) = (lo.min(a - margin), hi.max(b + margin));
         }
         self.reach = (lo - self.max_radius, hi + self.max_radius);
     }
