@@ -357,6 +357,8 @@ impl VerletState {
             return;
         }
         let acceleration = if w > 0.0 { gravity } else { DVec3::ZERO };
+        // (In the substep its island's state refers to: the step re-expresses it from there.)
+        let h = self.solver.state_substep_of(slot as u32).unwrap_or(h);
         if moved
             && let Some((x, previous)) =
                 self.state_from_component(entity, particle, acceleration, dt, h)

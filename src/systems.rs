@@ -237,7 +237,11 @@ pub(crate) fn prepare(
     let state = &mut *state;
     warn_config(state, &inputs.config, &inputs.gravity);
     let step = step_config(&inputs.config, &inputs.gravity, &inputs.time);
-    let (dt, h) = (step.timestep, step.substep());
+    // (New particles' states refer to the last step's substep: the solver's convention.)
+    let (dt, h) = (
+        step.timestep,
+        state.solver.verlet_substep().unwrap_or(step.substep()),
+    );
     // An edited particle the solver does not know (e.g. a rejected one that was fixed) needs a
     // rebuild.
     if !state.dirty {

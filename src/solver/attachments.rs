@@ -7,10 +7,16 @@
 //! heavy crate at its end and not a light particle that the crate catches up with a substep
 //! later (a Gauss–Seidel pass between a rope and a 100× heavier body would carry ~1 % of the
 //! correction per substep). After the relaxation ([`release`]) the particle's displacement is
-//! handed to the body as a positional correction at the anchor (it moves the body's anchor by
-//! that displacement, exactly along the pull direction), the particle is put back on the anchor,
-//! and its own mass is restored. Static and kinematic bodies make the particle immovable: it
-//! follows the body like a pin.
+//! handed to the body as a positional correction at the anchor, the particle is put back on the
+//! anchor, and its own mass is restored. The correction keeps momentum exactly: the rope's
+//! impulse on the lumped particle, `J = Δx / w_lumped`, is shared between the body and the
+//! particle riding its anchor, `p + m·W(r) p = J` with `W(r)` the body's inverse mass matrix at
+//! the anchor (along the pull direction this moves the anchor by `Δx`). Static and kinematic
+//! bodies make the particle immovable: it follows the body like a pin.
+//!
+//! An island that takes fewer substeps than the bodies (an `IslandOverride`) sees each body
+//! heavier by their ratio `h_body/h` and hands it `J·h_body/h`: the momentum its substep
+//! delivered, spread over the body's shorter substep.
 //!
 //! This is the lumped-mass form of a zero-length XPBD joint between a particle and a rigid body
 //! (Müller et al. 2020, "Detailed Rigid Body Simulation with Extended Position Based Dynamics",
@@ -18,7 +24,7 @@
 
 use super::Particles;
 use super::bodies::Body;
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 /// A particle fixed to a point of a body.
 ///
@@ -72,6 +78,8 @@ pub struct AttachmentScratch {
     own_inverse_mass: Vec<f64>,
     /// The body's inverse mass at the anchor along the pull direction, shared (÷ attachments).
     body_inverse_mass: Vec<f64>,
+    /// The bodies' substep over the particle's, `h_body/h` (1 when it takes every substep).
+    time_ratio: Vec<f64>,
     /// Where the particle was placed before the relaxation.
     placed: Vec<DVec3>,
     /// Attachments per body.
@@ -79,18 +87,21 @@ pub struct AttachmentScratch {
 }
 
 /// Before the relaxation: puts every due attachment's particle on its anchor (previous position
-/// on the anchor's previous position) and gives it the body's share of effective mass. `due`
-/// says whether a particle takes this substep.
+/// on the anchor's previous position, a substep of its own back) and gives it the body's share
+/// of effective mass. `due`
+/// gives, for a particle that takes this substep, the bodies' substep over its own (`h_body/h`:
+/// 1 when its island takes every substep), and `None` for one that does not.
 pub fn lump(
     attachments: &[Attachment],
     bodies: &[Body],
     particles: &mut Particles,
     scratch: &mut AttachmentScratch,
-    due: impl Fn(usize) -> bool,
+    due: impl Fn(usize) -> Option<f64>,
 ) {
     let n = attachments.len();
     scratch.own_inverse_mass.resize(n, 0.0);
     scratch.body_inverse_mass.resize(n, 0.0);
+    scratch.time_ratio.resize(n, 1.0);
     scratch.placed.resize(n, DVec3::ZERO);
     scratch.per_body.clear();
     scratch.per_body.resize(bodies.len(), 0);
@@ -101,17 +112,20 @@ pub fn lump(
         let p = a.particle as usize;
         let body = &bodies[a.body as usize];
         scratch.own_inverse_mass[k] = particles.inverse_mass[p];
-        if !due(p) {
+        let Some(ratio) = due(p) else {
             scratch.body_inverse_mass[k] = f64::NAN; // not lumped
             continue;
-        }
+        };
         let r = body.rotation * a.anchor;
         let shares = f64::from(scratch.per_body[a.body as usize]);
-        let w_body = body.inverse_mass_at(r, a.direction) * shares;
+        // (Seen from a longer substep the body is heavier: it answers over its own.)
+        let w_body = body.inverse_mass_at(r, a.direction) * shares * ratio;
         scratch.body_inverse_mass[k] = w_body;
+        scratch.time_ratio[k] = ratio;
         let anchor = a.world_anchor(body);
         particles.position[p] = anchor;
-        particles.previous[p] = a.previous_anchor(body);
+        // (Its Verlet state in its own substep: the anchor's motion over the body's, scaled.)
+        particles.previous[p] = anchor - (anchor - a.previous_anchor(body)) / ratio;
         scratch.placed[k] = anchor;
         let w_own = particles.inverse_mass[p];
         particles.inverse_mass[p] = if w_body > 0.0 && w_own > 0.0 {
@@ -122,8 +136,9 @@ pub fn lump(
     }
 }
 
-/// After the relaxation: moves each body so that its anchors follow their particles, puts the
-/// particles back on the anchors, and restores their masses.
+/// After the relaxation: moves each body by the impulse its attached particles took (the body
+/// and the particle on its anchor share it, momentum kept), puts the particles back on the
+/// anchors, and restores their masses.
 pub fn release(
     attachments: &mut [Attachment],
     bodies: &mut [Body],
@@ -137,10 +152,19 @@ pub fn release(
         }
         let p = a.particle as usize;
         let moved = particles.position[p] - scratch.placed[k];
-        if w_body > 0.0 && moved != DVec3::ZERO {
+        let w_lumped = particles.inverse_mass[p];
+        if w_body > 0.0 && w_lumped > 0.0 && moved != DVec3::ZERO {
             let body = &mut bodies[a.body as usize];
             let r = body.rotation * a.anchor;
-            body.correct(r, moved / w_body);
+            // The impulse J the constraints gave the lumped particle, in the body's substep,
+            // shared between the body (p) and the particle riding its anchor: p + m·W p = J.
+            let impulse = moved / w_lumped * scratch.time_ratio[k];
+            let own_mass = 1.0 / scratch.own_inverse_mass[k];
+            let share = DMat3::IDENTITY + body.inverse_mass_matrix_at(r) * own_mass;
+            let p = share.inverse() * impulse;
+            if p.is_finite() {
+                body.correct(r, p);
+            }
             a.direction = moved.normalize();
         }
     }
@@ -172,7 +196,7 @@ mod tests {
         let mut scratch = AttachmentScratch::default();
         bodies[0].begin_substep(0.1);
         lump(&attachments, &bodies, &mut particles, &mut scratch, |_| {
-            true
+            Some(1.0)
         });
         assert_eq!(particles.position[0], DVec3::Y);
         // Lumped: 0.1 kg particle + 2 kg body along Y (the arm is along Y: no turning).
@@ -198,7 +222,7 @@ mod tests {
         let mut scratch = AttachmentScratch::default();
         bodies[0].begin_substep(0.5);
         lump(&attachments, &bodies, &mut particles, &mut scratch, |_| {
-            true
+            Some(1.0)
         });
         assert_eq!(particles.inverse_mass[0], 0.0);
         assert_eq!(particles.position[0], DVec3::new(0.5, 0.0, 0.0));

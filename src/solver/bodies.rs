@@ -155,6 +155,27 @@ impl Body {
         self.inverse_mass + arm.dot(self.inverse_inertia * arm)
     }
 
+    /// Generalised inverse mass matrix at arm `r` (world, from the centre of mass): a
+    /// correction `p` applied there moves that point by `W p` (to first order), with
+    /// `W = w·I + [r]ₓᵀ I⁻¹ [r]ₓ`. Zero for immovable bodies.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Body;
+    /// use glam::{DMat3, DQuat, DVec3};
+    /// let body = Body::dynamic(DVec3::ZERO, DQuat::IDENTITY, 0.5, DMat3::IDENTITY * 2.0);
+    /// let w = body.inverse_mass_matrix_at(DVec3::X);
+    /// // Along the arm only the mass answers; across it the inertia too.
+    /// assert!((w * DVec3::X - DVec3::X * 0.5).length() < 1e-12);
+    /// assert!((w * DVec3::Y - DVec3::Y * 2.5).length() < 1e-12);
+    /// ```
+    pub fn inverse_mass_matrix_at(&self, r: DVec3) -> DMat3 {
+        if !self.is_dynamic() {
+            return DMat3::ZERO;
+        }
+        let cross = DMat3::from_cols(r.cross(DVec3::X), r.cross(DVec3::Y), r.cross(DVec3::Z));
+        DMat3::from_diagonal(DVec3::splat(self.inverse_mass)) - cross * self.inverse_inertia * cross
+    }
+
     /// Velocity of the body's material point at arm `r`.
     pub fn point_velocity(&self, r: DVec3) -> DVec3 {
         self.velocity + self.angular_velocity.cross(r)

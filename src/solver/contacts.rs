@@ -144,6 +144,11 @@ pub struct ContactParticle {
     pub connected: [u32; 2],
     /// `|g|·h²` of its substep (for the resting speed).
     pub gravity_step: f64,
+    /// The bodies' substep over this particle's, `h_body/h` (1 when its island takes every
+    /// substep, less when an `IslandOverride` gives it fewer): a body answers over its own
+    /// substep, so the particle sees it that much heavier and its surface moving that much
+    /// faster per particle substep, and momentum is kept.
+    pub time_ratio: f64,
     /// The particle's own `(restitution, friction)`, if it asks for one: each is averaged with
     /// the collider's (avian's default combine rule); a NaN field leaves the collider's value.
     pub material: Option<(f64, f64)>,
@@ -199,6 +204,7 @@ pub fn collide_particle<S: ContactShape>(
             collider,
             material,
             gravity_step: particle.gravity_step,
+            time_ratio: particle.time_ratio,
         };
         resolve(
             contact,
@@ -257,6 +263,8 @@ struct Contact<'a, S> {
     /// `(restitution, friction)` of the pair.
     material: (f64, f64),
     gravity_step: f64,
+    /// See [`ContactParticle::time_ratio`].
+    time_ratio: f64,
 }
 
 /// Splits the penetration and the velocity response between the particle and the body.
@@ -272,21 +280,23 @@ fn resolve<S>(
         collider,
         material,
         gravity_step,
+        time_ratio,
     } = contact;
     let body = &mut bodies[collider.body as usize];
     // The surface point: one radius minus the penetration behind the particle's centre.
     let arm = *position - normal * (radius - depth) - body.position;
-    let w_body = body.inverse_mass_at(arm, normal);
+    // (In the particle's substep; the body answers over its own, `time_ratio` of it.)
+    let w_body = body.inverse_mass_at(arm, normal) * time_ratio;
     let share = w_particle / (w_particle + w_body);
     let lambda = depth / (w_particle + w_body);
-    // Velocities (per substep) before the projection, relative to the surface point.
-    let surface_motion = surface_motion(body, arm);
+    // Velocities (per particle substep) before the projection, relative to the surface point.
+    let surface_motion = surface_motion(body, arm) / time_ratio;
     let velocity = *position - *previous;
     let relative = velocity - surface_motion;
     let responded = super::colliders::respond(relative, normal, material, 2.0 * gravity_step);
     let change = responded - relative;
     *position += normal * (w_particle * lambda);
-    body.correct(arm, -normal * lambda);
+    body.correct(arm, -normal * (lambda * time_ratio));
     *previous = *position - (velocity + change * share);
     if w_body > 0.0 {
         // The body's part of the velocity change, less what its positional correction already
@@ -360,6 +370,7 @@ mod tests {
             connected: [NO_BODY; 2],
             gravity_step: 0.0,
             material: None,
+            time_ratio: 1.0,
         };
         let state = (&mut x, &mut previous, 0.5, 0.1);
         assert!(collide_particle(

@@ -170,8 +170,11 @@ impl<S: ContactShape> External<S> {
         if self.attachments.is_empty() {
             return;
         }
-        let due = &self.due;
-        let is_due = |p: usize| due.iter().any(|(range, _)| range.contains(&p));
+        let (due, h) = (&self.due, self.h);
+        let is_due = |p: usize| {
+            let (_, substep) = due.iter().find(|(range, _)| range.contains(&p))?;
+            Some(h / substep.h)
+        };
         lump(
             &self.attachments,
             &self.bodies,
@@ -247,6 +250,7 @@ impl<S: ContactShape> External<S> {
                 connected: self.connected.get(slot).copied().unwrap_or([NO_BODY; 2]),
                 gravity_step,
                 material: self.particle_materials.get(slot).copied().flatten(),
+                time_ratio: self.h / substep.h,
             };
             let (position, previous) =
                 (&mut particles.position[slot], &mut particles.previous[slot]);

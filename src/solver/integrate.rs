@@ -74,3 +74,45 @@ pub(crate) fn integrate_range(
 pub fn consistent_previous(position: DVec3, velocity: DVec3, acceleration: DVec3, h: f64) -> DVec3 {
     position - velocity * h + acceleration * (0.5 * h * h)
 }
+
+/// Re-expresses the Verlet state of the particles in `range` for substeps of `to` seconds
+/// instead of `from`: each keeps its velocity `v = (x − x*)/h + a·h/2` (`a` = `gravity` for
+/// movable particles, as in [`consistent_previous`]), and gets `x* = x − v·to + a·to²/2`; one
+/// placed at rest (`x* = x`, as [`Solver::add_particle`](super::Solver::add_particle), pins
+/// and sleep leave it) stays so. A
+/// Verlet state holds the velocity times the substep, so without this a particle whose island
+/// changes its substep count (an `IslandOverride`, a new `VerletConfig::substeps`) would change
+/// speed by their ratio.
+///
+/// ```
+/// use bevy_verlet_physics::solver::{resubstep, Particles};
+/// use glam::DVec3;
+/// let mut p = Particles::default();
+/// p.push(DVec3::ZERO, DVec3::new(-0.1, 0.0, 0.0), 1.0, 0.0, 0); // 1 m/s at h = 0.1 s
+/// resubstep(&mut p, 0..1, DVec3::ZERO, 0.1, 0.025);
+/// assert!((p.previous[0].x + 0.025).abs() < 1e-15); // still 1 m/s at h = 0.025 s
+/// ```
+pub fn resubstep(
+    particles: &mut Particles,
+    range: Range<usize>,
+    gravity: DVec3,
+    from: f64,
+    to: f64,
+) {
+    if from == to || from <= 0.0 || to <= 0.0 {
+        return;
+    }
+    for i in range {
+        let x = particles.position[i];
+        if particles.previous[i] == x {
+            continue; // placed at rest (`add_particle`, a pin, sleep): at rest in any substep
+        }
+        let a = if particles.inverse_mass[i] > 0.0 {
+            gravity
+        } else {
+            DVec3::ZERO
+        };
+        let velocity = (x - particles.previous[i]) / from + a * (0.5 * from);
+        particles.previous[i] = consistent_previous(x, velocity, a, to);
+    }
+}

@@ -115,6 +115,10 @@ pub struct Island {
     pub asleep: bool,
     /// How long every particle has been below the sleep speed, in seconds.
     pub calm_time: f64,
+    /// The substep length (s) its particles' Verlet state `x − x*` refers to (its last
+    /// substep), `0` for [`Solver::verlet_substep`](super::Solver::verlet_substep) (a new
+    /// island); see [`resubstep`](super::resubstep).
+    pub state_substep: f64,
 }
 
 impl Island {
@@ -369,6 +373,7 @@ impl Solver {
     /// assert_eq!(solver.sticks.ends()[0], [0, 1]);
     /// ```
     pub fn organize(&mut self) -> Reorder {
+        self.states_to_verlet_substep();
         self.tethered.resize(self.particles.len(), false);
         let grouping = self.group_particles();
         let (order, colour) = self.order_sticks(&grouping);
@@ -711,6 +716,7 @@ impl Solver {
             hierarchy: None,
             asleep,
             calm_time,
+            state_substep: 0.0,
         });
         islands.lines.clear();
         islands.hierarchies.clear();

@@ -100,7 +100,7 @@ pub use colouring::Batch;
 pub use contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle};
 pub use external::External;
 pub use hierarchy::{Hierarchy, HierarchySet};
-pub use integrate::{consistent_previous, integrate};
+pub use integrate::{consistent_previous, integrate, resubstep};
 pub use islands::{Island, IslandSettings, Islands, ReadOnly, Reorder, Sleep};
 pub use lines::{Line, LineSet, Method};
 pub use parallel::{Executor, ScopedThreads, Serial};
@@ -252,6 +252,8 @@ pub struct Solver {
     pub(crate) counters: parallel::Counters,
     /// Sticks were cut since the tethers were built: rebuild them before the next step.
     pub(crate) tethers_stale: bool,
+    /// See [`Solver::verlet_substep`].
+    pub(crate) verlet_substep: Option<f64>,
 }
 
 impl Solver {
@@ -314,6 +316,77 @@ impl Solver {
             let island = islands.of_particle(tethers.particle[i]);
             island.is_some() && island == islands.of_particle(tethers.anchor[i])
         })
+    }
+
+    /// The last step's global substep length (s, [`StepConfig::substep`]), `None` before the
+    /// first step. A particle's Verlet state `x − x*` is its velocity times the substep of its
+    /// island ([`Solver::state_substep_of`]); a state written for no island yet (a new
+    /// particle) or after [`Solver::organize`] refers to this one (to the first step's before
+    /// the first step). Each step re-expresses every island's states for the substeps it takes
+    /// (see [`resubstep`]), so a new `StepConfig::substeps`, timestep or island count keeps
+    /// every velocity.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Solver, StepConfig};
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// let p = solver.add_particle(DVec3::ZERO, 1.0) as usize;
+    /// let mut config = StepConfig { gravity: DVec3::ZERO, ..StepConfig::default() };
+    /// solver.particles.previous[p] = DVec3::new(-config.substep(), 0.0, 0.0); // 1 m/s
+    /// solver.organize();
+    /// solver.step(&config);
+    /// assert_eq!(solver.verlet_substep(), Some(config.substep()));
+    /// config.substeps = 2; // fewer, longer substeps: still 1 m/s
+    /// let before = solver.particles.position[p].x;
+    /// solver.step(&config);
+    /// let speed = (solver.particles.position[p].x - before) / config.timestep;
+    /// assert!((speed - 1.0).abs() < 1e-9);
+    /// ```
+    pub fn verlet_substep(&self) -> Option<f64> {
+        self.verlet_substep
+    }
+
+    /// The substep length (s) particle `slot`'s Verlet state `x − x*` refers to: its island's
+    /// last substep, else [`Solver::verlet_substep`]; `None` before the first step. Write its
+    /// `previous` for this substep to give it a velocity.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{IslandSettings, Solver, StepConfig};
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// let p = solver.add_particle(DVec3::ZERO, 1.0);
+    /// solver.island_settings.push((p, IslandSettings { substeps: 2, iterations: 1 }));
+    /// solver.organize();
+    /// let config = StepConfig::default();
+    /// solver.step(&config);
+    /// assert_eq!(solver.state_substep_of(p), Some(config.timestep / 2.0));
+    /// ```
+    pub fn state_substep_of(&self, slot: u32) -> Option<f64> {
+        let island = self
+            .islands
+            .of_particle(slot)
+            .map(|k| &self.islands.list[k]);
+        match island {
+            Some(island) if island.state_substep > 0.0 => Some(island.state_substep),
+            _ => self.verlet_substep,
+        }
+    }
+
+    /// Re-expresses every island's Verlet states for [`Solver::verlet_substep`] (velocities
+    /// kept) and forgets the islands' own substeps: before the islands are rebuilt, so that
+    /// particles from islands of different counts meet in one convention.
+    pub(crate) fn states_to_verlet_substep(&mut self) {
+        let (Some(to), Some(config)) = (self.verlet_substep, self.last_config) else {
+            return;
+        };
+        let particles = &mut self.particles;
+        for island in &mut self.islands.list.0 {
+            let from = std::mem::take(&mut island.state_substep);
+            let slots = island.particles.start as usize..island.particles.end as usize;
+            if !island.asleep && slots.end <= particles.len() {
+                resubstep(particles, slots, config.gravity, from, to);
+            }
+        }
     }
 
     /// How many Newton passes the line solves have taken since the solver was made (a cost

@@ -16,7 +16,7 @@ use super::angles::relax_angle_range;
 use super::colliders::constrain_range;
 use super::direct::{LineRef, LineScratch, LineSolve, LineViews};
 use super::hierarchy::AFTER_SWEEP_FROM_LEVEL;
-use super::integrate::integrate_range;
+use super::integrate::{integrate_range, resubstep};
 use super::lines::Method;
 use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
@@ -198,6 +198,23 @@ impl Solver {
             if !island.asleep {
                 count = count.max(island.config(config).substeps);
             }
+        }
+        // Each island's Verlet state in the substep it takes now, its velocities kept (see
+        // [`Island::state_substep`]): only where a count or the timestep changed. (A sleeping
+        // island rests with `x* = x`: left alone.)
+        let unset = self.verlet_substep.unwrap_or(config.substep());
+        for island in &mut self.islands.list.0 {
+            if island.asleep {
+                continue;
+            }
+            let h = island.config(config).substep();
+            let from = match island.state_substep {
+                from if from > 0.0 => from,
+                _ => unset,
+            };
+            let particles = range(&island.particles);
+            resubstep(&mut self.particles, particles, config.gravity, from, h);
+            island.state_substep = h;
         }
         self.current = Some(*config);
         count
@@ -442,6 +459,7 @@ impl Solver {
     pub fn finish_step(&mut self) -> usize {
         if let Some(config) = self.current.take() {
             self.update_sleep(&config);
+            self.verlet_substep = Some(config.substep());
         }
         self.pins.from.clone_from_slice(&self.pins.to);
         self.torn.clear();

@@ -69,6 +69,8 @@ impl VerletState {
     /// Moves the old tables aside (the particle state and render arrays into scratch) and
     /// empties the solver, keeping its colliders. Returns the old slots and islands.
     fn begin_rebuild(&mut self) -> (EntityHashMap<u32>, Islands) {
+        // (States carried over meet in new islands: in one convention, velocities kept.)
+        self.solver.states_to_verlet_substep();
         let old_slots = std::mem::take(&mut self.slots);
         std::mem::swap(&mut self.scratch, &mut self.solver.particles);
         std::mem::swap(&mut self.scratch_render[0], &mut self.render_previous);
