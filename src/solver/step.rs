@@ -190,30 +190,30 @@ impl Solver {
         self.wake_requests.clear();
         let pins = &self.pins;
         let mut count = 1;
+        // Each awake island's Verlet state in the substep it takes now, its velocities kept
+        // (see [`Island::state_substep`]): only where a count or the timestep changed. (A
+        // sleeping island rests with `x* = x`: left alone.)
+        let global = config.substep();
+        let unset = self.verlet_substep.unwrap_or(global);
         for island in &mut self.islands.list.0 {
             if island.asleep && pins.moving(range(&island.pins)) {
                 island.asleep = false;
                 island.calm_time = 0.0;
             }
-            if !island.asleep {
-                count = count.max(island.config(config).substeps);
-            }
-        }
-        // Each island's Verlet state in the substep it takes now, its velocities kept (see
-        // [`Island::state_substep`]): only where a count or the timestep changed. (A sleeping
-        // island rests with `x* = x`: left alone.)
-        let unset = self.verlet_substep.unwrap_or(config.substep());
-        for island in &mut self.islands.list.0 {
             if island.asleep {
                 continue;
             }
-            let h = island.config(config).substep();
+            let own = island.settings.map(|_| island.config(config));
+            count = count.max(own.map_or(config.substeps, |c| c.substeps));
+            let h = own.map_or(global, |c| c.substep());
             let from = match island.state_substep {
                 from if from > 0.0 => from,
                 _ => unset,
             };
-            let particles = range(&island.particles);
-            resubstep(&mut self.particles, particles, config.gravity, from, h);
+            if from != h {
+                let particles = range(&island.particles);
+                resubstep(&mut self.particles, particles, config.gravity, from, h);
+            }
             island.state_substep = h;
         }
         self.current = Some(*config);
