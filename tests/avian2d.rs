@@ -952,3 +952,44 @@ fn a_collider_spawned_or_moved_into_a_sleeping_rope_wakes_it() {
         pushed.1
     );
 }
+
+#[test]
+fn a_rope_never_collides_with_any_of_the_bodies_hung_on_it() {
+    // Three lanterns (10 cm boxes, wider than the 5 cm links) hang on one pinned rope, each
+    // overlapping the rope particles beside its knot: like avian's joints, an attachment
+    // keeps its island and the body apart — all three, not only the first two.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -0.6, 0.0), 12)
+            .mass(0.01)
+            .radius(0.01)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    for knot in [4, 8, 12] {
+        let at = particle(&app, rope.particles[knot]).position;
+        let lantern = spawn(
+            &mut app,
+            (
+                RigidBody::Dynamic,
+                Collider::rectangle(0.1, 0.1),
+                Mass(0.2),
+                Transform::from_translation(at),
+            ),
+        );
+        app.world_mut()
+            .entity_mut(rope.particles[knot])
+            .insert(BodyAttachment::new(lantern, Vec2::ZERO));
+    }
+    step(&mut app, 128);
+    let off_line = (rope.particles.iter())
+        .map(|&p| particle(&app, p).position.x.abs())
+        .fold(0.0f32, f32::max);
+    let contacts = app.world().resource::<AvianCouplingStats>().contacts;
+    println!("rope hangs {off_line:.2e} m off the vertical; {contacts} contacts in the last step");
+    assert_eq!(contacts, 0, "the rope touched its own lanterns");
+    assert!(off_line < 1e-3, "the rope was pushed aside: {off_line} m");
+}

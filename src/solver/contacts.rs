@@ -131,17 +131,14 @@ pub fn overlaps((lo, hi): (DVec3, DVec3), (a, b): (DVec3, DVec3)) -> bool {
     lo.cmple(b).all() && hi.cmpge(a).all()
 }
 
-/// "No body" in [`ContactParticle::connected`].
-pub const NO_BODY: u32 = u32::MAX;
-
 /// One particle as the contact pass sees it.
 #[derive(Clone, Copy, Debug)]
-pub struct ContactParticle {
+pub struct ContactParticle<'a> {
     /// Collision layers.
     pub layers: Layers,
     /// Bodies it never collides with: those attached to its island (as avian does not collide
-    /// bodies joined by a joint); [`NO_BODY`] for none.
-    pub connected: [u32; 2],
+    /// bodies joined by a joint).
+    pub connected: &'a [u32],
     /// `|g|·h²` of its substep (for the resting speed).
     pub gravity_step: f64,
     /// The bodies' substep over this particle's, `h_body/h` (1 when its island takes every
@@ -367,7 +364,7 @@ mod tests {
         let mut impulses = Vec::new();
         let particle = ContactParticle {
             layers: Layers::default(),
-            connected: [NO_BODY; 2],
+            connected: &[],
             gravity_step: 0.0,
             material: None,
             time_ratio: 1.0,

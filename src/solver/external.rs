@@ -16,9 +16,7 @@
 
 use super::attachments::{AttachmentScratch, lump, release};
 use super::bodies::{Body, Pose};
-use super::contacts::{
-    ContactParticle, ContactShape, ExternalCollider, Layers, NO_BODY, collide_particle,
-};
+use super::contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle};
 use super::{Attachment, GlobalSubstep, Solver, Substep};
 use glam::DVec3;
 use std::ops::Range;
@@ -80,8 +78,12 @@ pub struct External<S> {
     pub particle_materials: Vec<Option<(f64, f64)>>,
     /// Contacts resolved in the last step.
     pub contacts: usize,
-    /// Per particle: up to two bodies attached to its island (no contacts with them).
-    connected: Vec<[u32; 2]>,
+    /// The bodies attached to each island (no contacts with them): island indices, sorted,
+    /// and beside each the body (`connected_body`), without repeats.
+    connected_island: Vec<u32>,
+    connected_body: Vec<u32>,
+    /// Scratch of [`External::begin_step`].
+    connected_pairs: Vec<(u32, u32)>,
     scratch: AttachmentScratch,
     placed: Vec<(Pose, DVec3, DVec3)>,
     impulses: Vec<(u32, DVec3, DVec3)>,
@@ -102,7 +104,9 @@ impl<S> Default for External<S> {
             particle_layers: Vec::new(),
             particle_materials: Vec::new(),
             contacts: 0,
-            connected: Vec::new(),
+            connected_island: Vec::new(),
+            connected_body: Vec::new(),
+            connected_pairs: Vec::new(),
             scratch: AttachmentScratch::default(),
             placed: Vec::new(),
             impulses: Vec::new(),
@@ -120,10 +124,10 @@ impl<S: ContactShape> External<S> {
         self.bodies.is_empty()
     }
 
-    /// Starts a step after the lists were filled: marks, for every particle of an island with an
-    /// attachment, the body it is attached to (particles never collide with a body attached to
-    /// their island, as avian's joints disable collisions between the bodies they join; up to
-    /// two bodies per island).
+    /// Starts a step after the lists were filled: notes, for every island with an attachment,
+    /// the bodies attached to it (particles never collide with a body attached to their
+    /// island, as avian's joints disable collisions between the bodies they join; any number
+    /// of bodies per island).
     pub fn begin_step(&mut self, solver: &Solver) {
         self.contacts = 0;
         self.max_radius = if self.colliders.is_empty() {
@@ -131,30 +135,30 @@ impl<S: ContactShape> External<S> {
         } else {
             solver.particles.radius.iter().copied().fold(0.0, f64::max)
         };
-        self.connected.clear();
-        if self.attachments.is_empty() {
-            return;
-        }
-        self.connected.resize(solver.particles.len(), [NO_BODY; 2]);
-        let islands = &solver.islands.list;
+        let pairs = &mut self.connected_pairs;
+        pairs.clear();
         for a in &self.attachments {
-            let p = a.particle;
-            let island = if solver.is_organized() {
-                islands.iter().find(|i| i.particles.contains(&p))
-            } else {
-                None
-            };
-            let range = island.map_or(0..solver.particles.len(), |i| {
-                i.particles.start as usize..i.particles.end as usize
-            });
-            for bodies in &mut self.connected[range] {
-                if !bodies.contains(&a.body)
-                    && let Some(free) = bodies.iter_mut().find(|b| **b == NO_BODY)
-                {
-                    *free = a.body;
-                }
-            }
+            pairs.push((island_key(solver, a.particle), a.body));
         }
+        pairs.sort_unstable();
+        pairs.dedup();
+        self.connected_island.clear();
+        self.connected_body.clear();
+        for &(island, body) in pairs.iter() {
+            self.connected_island.push(island);
+            self.connected_body.push(body);
+        }
+    }
+
+    /// Where the bodies attached to the island of particle `slot` are in `connected_body`.
+    fn connected_to(&self, solver: &Solver, slot: u32) -> Range<usize> {
+        if self.connected_island.is_empty() {
+            return 0..0;
+        }
+        let island = island_key(solver, slot);
+        let start = self.connected_island.partition_point(|&k| k < island);
+        let end = self.connected_island.partition_point(|&k| k <= island);
+        start..end
     }
 
     /// After integration: predicts the bodies' poses for the substep and lumps attachments.
@@ -237,6 +241,12 @@ impl<S: ContactShape> External<S> {
             return;
         }
         let gravity_step = substep.gravity.length() * substep.h * substep.h;
+        // (A due range is one island's.)
+        let connected = match range.clone().next() {
+            Some(first) => self.connected_to(solver, first as u32),
+            None => 0..0,
+        };
+        let connected = &self.connected_body[connected];
         let particles = &mut solver.particles;
         let start = self.impulses.len();
         let (lo, hi) = self.reach;
@@ -247,7 +257,7 @@ impl<S: ContactShape> External<S> {
             }
             let particle = ContactParticle {
                 layers: self.particle_layers.get(slot).copied().unwrap_or_default(),
-                connected: self.connected.get(slot).copied().unwrap_or([NO_BODY; 2]),
+                connected,
                 gravity_step,
                 material: self.particle_materials.get(slot).copied().flatten(),
                 time_ratio: self.h / substep.h,
@@ -274,5 +284,17 @@ impl<S: ContactShape> External<S> {
         for impulse in &mut self.impulses[start..] {
             impulse.2 /= substep.h;
         }
+    }
+}
+
+/// The island of particle `slot` as a sort key (one for all in an unorganized solver).
+fn island_key(solver: &Solver, slot: u32) -> u32 {
+    if solver.is_organized() {
+        solver
+            .islands
+            .of_particle(slot)
+            .map_or(u32::MAX, |k| k as u32)
+    } else {
+        0
     }
 }
