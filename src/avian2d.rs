@@ -23,6 +23,11 @@ fn from_d(v: DVec3) -> Vec2 {
     Vec2::new(v.x as f32, v.y as f32)
 }
 
+/// A body's `Transform` translation for centre `v` (its depth kept: draw order).
+fn translation_from_d(v: DVec3, old: Vec3) -> Vec3 {
+    Vec3::new(v.x as f32, v.y as f32, old.z)
+}
+
 fn rotation_d(rotation: &Rotation) -> DQuat {
     DQuat::from_rotation_z(f64::from(rotation.as_radians()))
 }

@@ -22,6 +22,11 @@ fn from_d(v: DVec3) -> Vec3 {
     v.as_vec3()
 }
 
+/// A body's `Transform` translation for centre `v`.
+fn translation_from_d(v: DVec3, _: Vec3) -> Vec3 {
+    v.as_vec3()
+}
+
 fn rotation_d(rotation: &Rotation) -> DQuat {
     rotation.0.as_dquat()
 }

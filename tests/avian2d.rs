@@ -228,7 +228,8 @@ fn a_free_rope_and_its_body_keep_their_momentum_whatever_the_rope_substeps() {
     // No gravity: a free 1 kg box at rest, a 5-link rope (0.1 kg per particle) attached to it
     // by its first particle, the others moving sideways at 1 m/s: the rope swings the box
     // round, and the momentum of rope and box together stays what it was — also when the rope
-    // takes 2 of the step's 8 substeps, while the box steps through all 8.
+    // takes 2 of the step's 8 substeps, while the box steps through all 8. (The box is new in
+    // the first step: avian must start its second from where the particle step put it.)
     for settings in [None, Some(IslandOverride::new(2, 1))] {
         let mut app = app(Vec2::ZERO);
         let body = spawn(
@@ -251,8 +252,6 @@ fn a_free_rope_and_its_body_keep_their_momentum_whatever_the_rope_substeps() {
         // turning, see the README's known gaps.)
         let mut knot = app.world_mut().get_mut::<Particle>(first).unwrap();
         *knot = knot.clone().with_mass(0.001);
-        // (avian settles a new body's pose in its first steps.)
-        step(&mut app, 3);
         for &p in &rope.particles[1..] {
             app.world_mut()
                 .entity_mut(p)

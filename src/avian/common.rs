@@ -620,7 +620,12 @@ fn wake_touched(state: &mut VerletState, coupled: &Coupled) {
 }
 
 /// A body's pose, written to place it for avian's step.
-type BodyPose = (&'static mut Position, &'static mut Rotation);
+type BodyPose = (
+    &'static mut Position,
+    &'static mut Rotation,
+    Option<&'static mut Transform>,
+    Has<ChildOf>,
+);
 
 /// Hands every dynamic body the impulse the particles gave it during the step, and places it
 /// so that avian's step, which moves it by its new velocity, ends where the particle step's
@@ -661,14 +666,24 @@ fn apply_impulses(
             forces.apply_angular_impulse(angular_from_d(angular));
         }
         let mut poses = bodies.p1();
-        let Ok((mut position, mut rotation)) = poses.get_mut(entity) else {
+        let Ok((mut position, mut rotation, transform, has_parent)) = poses.get_mut(entity) else {
             continue;
         };
         let start = DQuat::from_scaled_axis(-body.angular_velocity * step) * body.rotation;
         let velocity_after_impulse = body.velocity - body.acceleration * step;
         let start_centre = body.position - velocity_after_impulse * step - body.acceleration * fall;
-        position.0 = from_d(start_centre - start * centre);
+        let origin = start_centre - start * centre;
+        position.0 = from_d(origin);
         *rotation = rotation_from_d(start.normalize());
+        // In a body's first step avian places it from its `Transform` (its `Position` is new):
+        // the same placement there, or avian's step starts from where it was spawned.
+        if position.is_added()
+            && !has_parent
+            && let Some(mut transform) = transform
+        {
+            transform.translation = translation_from_d(origin, transform.translation);
+            transform.rotation = start.normalize().as_quat();
+        }
     }
 }
 
