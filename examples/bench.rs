@@ -20,7 +20,8 @@
 //! scatter).
 //! `avian` (needs `--features avian2d`) times a cloth draped over an avian ball with the
 //! coupling against the same cloth over the crate's own sphere collider, both with avian
-//! running, and prints the coupling's extra cost per step.
+//! running, and prints the coupling's extra cost per step; `--pebbles N` adds N small static
+//! colliders in a row under the cloth (many colliders near one cloth).
 //! `torn` cuts the cloth example's curtain into 100 patches in place and compares its solve
 //! with the intact curtain's, before and after the next topology rebuild (sleeping off).
 //! `--method sweep|lines|hierarchy` forces a [`SolveMethod`]; `--corners 1` hangs the cloth by its
@@ -54,6 +55,7 @@ struct Options {
     tether_anchors: u32,
     method: SolveMethod,
     corners: bool,
+    pebbles: usize,
 }
 
 fn parse() -> Result<Options, String> {
@@ -71,6 +73,7 @@ fn parse() -> Result<Options, String> {
         tether_anchors: VerletConfig::default().tether_anchors,
         method: SolveMethod::default(),
         corners: false,
+        pebbles: 0,
     };
     while let Some(flag) = args.next() {
         let value = args.next().ok_or(format!("{flag} needs a value"))?;
@@ -102,6 +105,7 @@ fn parse() -> Result<Options, String> {
             "--threads" => o.threads = Some(number),
             "--tether-anchors" => o.tether_anchors = number as u32,
             "--corners" => o.corners = number != 0,
+            "--pebbles" => o.pebbles = number,
             _ => return Err(format!("unknown option {flag}")),
         }
     }
@@ -372,7 +376,7 @@ fn main() {
         Ok(options) => options,
         Err(message) => {
             eprintln!(
-                "{message}\nusage: bench [cloth|rope|ropes|ragdolls|sleeping|tearing|torn|avian] [--cols N --rows N | --links N | --count N] \
+                "{message}\nusage: bench [cloth|rope|ropes|ragdolls|sleeping|tearing|torn|avian] [--cols N --rows N | --links N | --count N | --pebbles N] \
                  [--steps N] [--iterations N] [--substeps N] [--threads N] [--method auto|sweep|lines|hierarchy] [--corners 1]"
             );
             std::process::exit(2);
@@ -529,17 +533,17 @@ mod avian {
         let width = options.cols as f32 * 0.1;
         let centre = Vec3::new(width / 2.0, -1.5, 0.0);
         spawn(&mut app, |c| {
-            if coupled {
-                c.spawn((
-                    RigidBody::Static,
-                    Collider::circle(1.0),
-                    Transform::from_translation(centre),
-                ));
-            } else {
-                c.spawn((
-                    VerletCollider::sphere(1.0),
-                    Transform::from_translation(centre),
-                ));
+            let pebbles = (0..options.pebbles).map(|i| {
+                let x = width * (i as f32 + 0.5) / options.pebbles as f32;
+                (Vec3::new(x, -0.4, 0.0), 0.04)
+            });
+            for (at, radius) in std::iter::once((centre, 1.0)).chain(pebbles) {
+                let place = Transform::from_translation(at);
+                if coupled {
+                    c.spawn((RigidBody::Static, Collider::circle(radius), place));
+                } else {
+                    c.spawn((VerletCollider::sphere(radius), place));
+                }
             }
             ClothBuilder::new(Vec3::ZERO, options.cols, options.rows, 0.1)
                 .pin_top_row(1)

@@ -157,18 +157,43 @@ pub struct ContactParticle<'a> {
 /// update. Returns whether the particle touched anything.
 pub fn collide_particle<S: ContactShape>(
     particle: ContactParticle,
-    (position, previous, inverse_mass, radius): (&mut DVec3, &mut DVec3, f64, f64),
+    state: (&mut DVec3, &mut DVec3, f64, f64),
     colliders: &[ExternalCollider<S>],
     placed: &[(Pose, DVec3, DVec3)],
     bodies: &mut [Body],
     impulses: &mut Vec<(u32, DVec3, DVec3)>,
+) -> bool {
+    let all = 0..colliders.len().min(placed.len());
+    let world = (colliders, placed, bodies, impulses);
+    collide_particle_with(particle, state, all, world)
+}
+
+/// What a particle's contacts read and write: the colliders, their world poses and bounds for
+/// this substep, the bodies, and the body impulses `(body, arm, impulse)` (see
+/// [`collide_particle`]).
+pub type ContactWorld<'w, S> = (
+    &'w [ExternalCollider<S>],
+    &'w [(Pose, DVec3, DVec3)],
+    &'w mut [Body],
+    &'w mut Vec<(u32, DVec3, DVec3)>,
+);
+
+/// [`collide_particle`] against the colliders `candidates` (indices into `colliders` and
+/// `placed`, in increasing order: the ones near the particle, see
+/// [`ColliderGrid`](super::collider_grid::ColliderGrid)).
+pub fn collide_particle_with<S: ContactShape>(
+    particle: ContactParticle,
+    (position, previous, inverse_mass, radius): (&mut DVec3, &mut DVec3, f64, f64),
+    candidates: impl IntoIterator<Item = usize>,
+    (colliders, placed, bodies, impulses): ContactWorld<'_, S>,
 ) -> bool {
     if inverse_mass <= 0.0 || !position.is_finite() {
         return false;
     }
     let mut touched = false;
     let particle_radius = radius;
-    for (collider, &(pose, lo, hi)) in colliders.iter().zip(placed) {
+    for i in candidates {
+        let (collider, &(pose, lo, hi)) = (&colliders[i], &placed[i]);
         // (A margin thickens the collider: the particle meets it as if that much larger.)
         let radius = particle_radius + collider.margin;
         let (swept_lo, swept_hi) = (position.min(*previous), position.max(*previous));

@@ -16,7 +16,10 @@
 
 use super::attachments::{AttachmentScratch, lump, release};
 use super::bodies::{Body, Pose};
-use super::contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle};
+use super::collider_grid::ColliderGrid;
+use super::contacts::{
+    ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle_with,
+};
 use super::{Attachment, GlobalSubstep, Solver, Substep};
 use glam::DVec3;
 use std::ops::Range;
@@ -93,6 +96,9 @@ pub struct External<S> {
     max_radius: f64,
     /// Bounds of every placed collider, grown by `max_radius` (this substep).
     reach: (DVec3, DVec3),
+    /// The placed colliders by place (this substep), and a particle's query.
+    grid: ColliderGrid,
+    near: Vec<u32>,
 }
 
 impl<S> Default for External<S> {
@@ -114,6 +120,8 @@ impl<S> Default for External<S> {
             h: 0.0,
             max_radius: 0.0,
             reach: (DVec3::ZERO, DVec3::ZERO),
+            grid: ColliderGrid::default(),
+            near: Vec::new(),
         }
     }
 }
@@ -234,6 +242,10 @@ impl<S: ContactShape> External<S> {
             (lo, hi) = (lo.min(a - margin), hi.max(b + margin));
         }
         self.reach = (lo - self.max_radius, hi + self.max_radius);
+        let margins = self.colliders.iter().map(|c| c.margin);
+        let bounds = self.placed.iter().zip(margins);
+        let bounds = bounds.map(|(&(_, a, b), margin)| (a - margin, b + margin));
+        self.grid.build(bounds);
     }
 
     fn collide_range(&mut self, solver: &mut Solver, range: Range<usize>, substep: &Substep) {
@@ -262,22 +274,28 @@ impl<S: ContactShape> External<S> {
                 material: self.particle_materials.get(slot).copied().flatten(),
                 time_ratio: self.h / substep.h,
             };
+            // The colliders it may meet: its swept box grown by its radius and by what a
+            // contact may push it (its radius and its motion again).
+            let radius = particles.radius[slot];
+            let reach = radius * 2.0 + (x - before).length();
+            let (box_lo, box_hi) = (x.min(before) - reach, x.max(before) + reach);
+            let near = self.grid.near(box_lo, box_hi, &mut self.near);
             let (position, previous) =
                 (&mut particles.position[slot], &mut particles.previous[slot]);
-            let state = (
-                position,
-                previous,
-                particles.inverse_mass[slot],
-                particles.radius[slot],
-            );
-            let touched = collide_particle(
-                particle,
-                state,
-                &self.colliders,
-                &self.placed,
-                &mut self.bodies,
+            let state = (position, previous, particles.inverse_mass[slot], radius);
+            let world = (
+                &self.colliders[..],
+                &self.placed[..],
+                &mut self.bodies[..],
                 &mut self.impulses,
             );
+            let touched = match near {
+                Some(()) => {
+                    let candidates = self.near.iter().map(|&i| i as usize);
+                    collide_particle_with(particle, state, candidates, world)
+                }
+                None => collide_particle_with(particle, state, 0..self.colliders.len(), world),
+            };
             self.contacts += usize::from(touched);
         }
         // Impulses were in mass × displacement per substep: per second for the bodies.

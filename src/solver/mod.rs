@@ -71,6 +71,7 @@
 mod angles;
 pub mod attachments;
 pub mod bodies;
+pub mod collider_grid;
 mod colliders;
 pub mod colouring;
 pub mod contacts;

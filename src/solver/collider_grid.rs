@@ -1,0 +1,248 @@
+//! A uniform grid over the external colliders of a substep, so a particle meets only the
+//! colliders near it instead of testing the bounds of every one.
+//!
+//! Rebuilt every substep from the colliders' placed bounds (they move with their bodies): the
+//! cell is the size of the median collider (its largest bounded side), and each collider is
+//! listed in every cell its bounds (grown by its margin) overlap. One over four times that size
+//! or covering more than [`MAX_CELLS`] cells (a ground, a wall) goes on a list every particle
+//! tests; the grid spans the others (a particle outside it asks for the edge cells). A particle
+//! asks for the cells its swept box — grown by its radius and by what a contact may push it,
+//! its radius and its motion — overlaps, and gets each collider once, in the colliders' order:
+//! the contacts resolve as without the grid, in the same order. An axis the colliders do not
+//! bound (2D shapes extend through every depth) is one cell wide; at most a few cells per
+//! collider. Below [`MIN_COLLIDERS`] colliders there is no grid. Counting sort into flat arrays:
+//! no allocation once they have grown.
+
+use glam::DVec3;
+
+/// Fewer colliders than this are all tested by every particle (no grid).
+pub const MIN_COLLIDERS: usize = 8;
+
+/// A collider or a particle query covering more cells than this skips the grid (the collider
+/// is tested by every particle; the particle tests every collider).
+pub const MAX_CELLS: usize = 27;
+
+/// The grid (see the [module docs](self)).
+#[derive(Clone, Debug, Default)]
+pub struct ColliderGrid {
+    active: bool,
+    origin: DVec3,
+    inverse_cell: DVec3,
+    dims: [usize; 3],
+    /// `items[start[c]..start[c + 1]]`: the colliders listed in cell `c`.
+    start: Vec<u32>,
+    items: Vec<u32>,
+    /// Colliders too large for the grid.
+    large: Vec<u32>,
+    /// Per collider: the query that last returned it (dedup).
+    seen: Vec<u32>,
+    query: u32,
+    /// Colliders with a larger side are tested by every particle.
+    limit: f64,
+    /// Scratch: each collider's largest bounded side.
+    sides: Vec<f64>,
+}
+
+impl ColliderGrid {
+    /// Rebuilds the grid over `bounds` (each collider's placed bounds, grown by its margin).
+    pub fn build(&mut self, bounds: impl Iterator<Item = (DVec3, DVec3)> + Clone) {
+        let n = bounds.clone().count();
+        self.active = n >= MIN_COLLIDERS;
+        if !self.active {
+            return;
+        }
+        // A cell the size of the median collider (its largest bounded side); colliders over
+        // four times that (a ground, a wall) are tested by every particle.
+        self.sides.clear();
+        self.sides
+            .extend(bounds.clone().map(|(lo, hi)| largest_side(lo, hi)));
+        let middle = n / 2;
+        let size = *self.sides.select_nth_unstable_by(middle, f64::total_cmp).1;
+        self.limit = 4.0 * size;
+        let small = bounds
+            .clone()
+            .filter(|&(lo, hi)| largest_side(lo, hi) <= self.limit);
+        let (lo, hi) = small.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), b| {
+            (lo.min(b.0), hi.max(b.1))
+        });
+        let extent = hi - lo;
+        let axis = |k: usize, size: f64| -> usize {
+            let e = extent[k];
+            if bounded(e) && e > 0.0 && size > 0.0 {
+                ((e / size).ceil() as usize).clamp(1, 1 << 10)
+            } else {
+                1
+            }
+        };
+        // No more cells than a few per collider.
+        let (mut size, mut dims) = (size, [1; 3]);
+        for _ in 0..64 {
+            dims = [axis(0, size), axis(1, size), axis(2, size)];
+            if dims.iter().product::<usize>() <= 4 * n + 64 {
+                break;
+            }
+            size *= 1.5;
+        }
+        self.dims = dims;
+        self.origin = lo;
+        self.inverse_cell = DVec3::from_array(std::array::from_fn(|k| {
+            if dims[k] > 1 {
+                dims[k] as f64 / extent[k]
+            } else {
+                0.0
+            }
+        }));
+        self.fill(bounds, n);
+    }
+
+    /// Counting sort of the colliders into their cells.
+    fn fill(&mut self, bounds: impl Iterator<Item = (DVec3, DVec3)> + Clone, n: usize) {
+        let cells = self.dims.iter().product::<usize>();
+        self.start.clear();
+        self.start.resize(cells + 1, 0);
+        self.large.clear();
+        self.seen.clear();
+        self.seen.resize(n, u32::MAX);
+        self.query = 0;
+        for (lo, hi) in bounds.clone() {
+            if let Some(range) = self
+                .cells(lo, hi)
+                .filter(|_| largest_side(lo, hi) <= self.limit)
+            {
+                let start = &mut self.start;
+                each_cell(self.dims, range, |c| start[c + 1] += 1);
+            }
+        }
+        for c in 0..cells {
+            self.start[c + 1] += self.start[c];
+        }
+        self.items.clear();
+        self.items.resize(self.start[cells] as usize, 0);
+        let mut next = self.start.clone();
+        for (i, (lo, hi)) in bounds.enumerate() {
+            match self
+                .cells(lo, hi)
+                .filter(|_| largest_side(lo, hi) <= self.limit)
+            {
+                Some(range) => {
+                    let items = &mut self.items;
+                    each_cell(self.dims, range, |c| {
+                        items[next[c] as usize] = i as u32;
+                        next[c] += 1;
+                    });
+                }
+                None => self.large.push(i as u32),
+            }
+        }
+    }
+
+    /// The cell ranges `[lo, hi]` per axis a box covers, or `None` beyond [`MAX_CELLS`].
+    fn cells(&self, lo: DVec3, hi: DVec3) -> Option<[(usize, usize); 3]> {
+        let index = |v: f64, k: usize| -> usize {
+            let t = (v - self.origin[k]) * self.inverse_cell[k];
+            if t.is_nan() || t <= 0.0 {
+                0
+            } else {
+                (t as usize).min(self.dims[k] - 1)
+            }
+        };
+        let range: [(usize, usize); 3] =
+            std::array::from_fn(|k| (index(lo[k], k), index(hi[k], k)));
+        let count: usize = range.iter().map(|(a, b)| b - a + 1).product();
+        (count <= MAX_CELLS).then_some(range)
+    }
+
+    /// Fills `out` with the colliders a particle with box `(lo, hi)` may meet, each once, in
+    /// the colliders' order; `None` when every collider must be tested (no grid, or a box
+    /// covering more than [`MAX_CELLS`] cells).
+    pub fn near(&mut self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) -> Option<()> {
+        if !self.active {
+            return None;
+        }
+        let range = self.cells(lo, hi)?;
+        out.clear();
+        self.query = self.query.wrapping_add(1);
+        let query = self.query;
+        let (start, items, seen) = (&self.start, &self.items, &mut self.seen);
+        let mut take = |i: u32| {
+            if seen[i as usize] != query {
+                seen[i as usize] = query;
+                out.push(i);
+            }
+        };
+        self.large.iter().for_each(|&i| take(i));
+        each_cell(self.dims, range, |c| {
+            items[start[c] as usize..start[c + 1] as usize]
+                .iter()
+                .for_each(|&i| take(i));
+        });
+        out.sort_unstable();
+        Some(())
+    }
+}
+
+/// Whether a length is bounded (2D shapes extend through every depth).
+fn bounded(length: f64) -> bool {
+    length.is_finite() && length < 1e12
+}
+
+/// The largest bounded side of a box (0 if none is).
+fn largest_side(lo: DVec3, hi: DVec3) -> f64 {
+    (hi - lo)
+        .to_array()
+        .into_iter()
+        .filter(|&s| bounded(s))
+        .fold(0.0, f64::max)
+}
+
+/// Calls `f` with the index of every cell in `range` (per axis, inclusive).
+fn each_cell(dims: [usize; 3], range: [(usize, usize); 3], mut f: impl FnMut(usize)) {
+    let [nx, ny, _] = dims;
+    for z in range[2].0..=range[2].1 {
+        for y in range[1].0..=range[1].1 {
+            for x in range[0].0..=range[0].1 {
+                f(x + nx * (y + ny * z));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every collider whose bounds touch a query box is returned, each once, in order; far
+    /// ones are not; a huge collider is always returned.
+    #[test]
+    fn a_query_finds_exactly_the_colliders_near_it() {
+        let mut boxes: Vec<(DVec3, DVec3)> = (0..40)
+            .map(|i| {
+                let at = DVec3::new((i % 8) as f64, (i / 8) as f64, 0.0) * 2.0;
+                (at, at + DVec3::splat(1.0))
+            })
+            .collect();
+        boxes.push((DVec3::splat(-100.0), DVec3::splat(100.0))); // a ground
+        let mut grid = ColliderGrid::default();
+        grid.build(boxes.iter().copied());
+        let mut out = Vec::new();
+        for query in [
+            (DVec3::new(2.5, 2.5, 0.2), DVec3::new(4.5, 3.0, 0.4)),
+            (DVec3::splat(-3.0), DVec3::splat(-2.0)),
+        ] {
+            grid.near(query.0, query.1, &mut out).expect("small query");
+            let touching: Vec<u32> = (0..boxes.len() as u32)
+                .filter(|&i| {
+                    let (a, b) = boxes[i as usize];
+                    query.0.cmple(b).all() && query.1.cmpge(a).all()
+                })
+                .collect();
+            assert!(
+                touching.iter().all(|i| out.contains(i)),
+                "{touching:?} ⊄ {out:?}"
+            );
+            assert!(out.windows(2).all(|w| w[0] < w[1]), "sorted, once: {out:?}");
+            assert!(out.contains(&40), "the ground is always there");
+            assert!(out.len() < 10, "only nearby colliders: {out:?}");
+        }
+    }
+}
