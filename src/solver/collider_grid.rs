@@ -39,6 +39,10 @@ pub struct ColliderGrid {
     query: u32,
     /// Colliders with a larger side are tested by every particle.
     limit: f64,
+    /// Axes most colliders leave unbounded (one cell wide).
+    free: [bool; 3],
+    /// Scratch of the counting sort.
+    next: Vec<u32>,
     /// Scratch: each collider's largest bounded side.
     sides: Vec<f64>,
 }
@@ -51,24 +55,30 @@ impl ColliderGrid {
         if !self.active {
             return;
         }
-        // A cell the size of the median collider (its largest bounded side); colliders over
-        // four times that (a ground, a wall) are tested by every particle.
+        // Axes most colliders leave unbounded (2D shapes through every depth) are one cell.
+        self.free = std::array::from_fn(|k| {
+            let unbounded = bounds.clone().filter(|(lo, hi)| !bounded(hi[k] - lo[k]));
+            2 * unbounded.count() > n
+        });
+        // A cell the size of the median collider (its largest side); colliders over four
+        // times that (a ground, a wall, a plane) are tested by every particle.
+        let free = self.free;
         self.sides.clear();
         self.sides
-            .extend(bounds.clone().map(|(lo, hi)| largest_side(lo, hi)));
+            .extend(bounds.clone().map(|(lo, hi)| largest_side(free, lo, hi)));
         let middle = n / 2;
         let size = *self.sides.select_nth_unstable_by(middle, f64::total_cmp).1;
         self.limit = 4.0 * size;
         let small = bounds
             .clone()
-            .filter(|&(lo, hi)| largest_side(lo, hi) <= self.limit);
+            .filter(|&(lo, hi)| largest_side(free, lo, hi) <= self.limit);
         let (lo, hi) = small.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), b| {
             (lo.min(b.0), hi.max(b.1))
         });
         let extent = hi - lo;
         let axis = |k: usize, size: f64| -> usize {
             let e = extent[k];
-            if bounded(e) && e > 0.0 && size > 0.0 {
+            if !free[k] && bounded(e) && e > 0.0 && size > 0.0 {
                 ((e / size).ceil() as usize).clamp(1, 1 << 10)
             } else {
                 1
@@ -107,7 +117,7 @@ impl ColliderGrid {
         for (lo, hi) in bounds.clone() {
             if let Some(range) = self
                 .cells(lo, hi)
-                .filter(|_| largest_side(lo, hi) <= self.limit)
+                .filter(|_| largest_side(self.free, lo, hi) <= self.limit)
             {
                 let start = &mut self.start;
                 each_cell(self.dims, range, |c| start[c + 1] += 1);
@@ -118,14 +128,12 @@ impl ColliderGrid {
         }
         self.items.clear();
         self.items.resize(self.start[cells] as usize, 0);
-        let mut next = self.start.clone();
+        self.next.clone_from(&self.start);
         for (i, (lo, hi)) in bounds.enumerate() {
-            match self
-                .cells(lo, hi)
-                .filter(|_| largest_side(lo, hi) <= self.limit)
-            {
+            let range = self.cells(lo, hi);
+            match range.filter(|_| largest_side(self.free, lo, hi) <= self.limit) {
                 Some(range) => {
-                    let items = &mut self.items;
+                    let (items, next) = (&mut self.items, &mut self.next);
                     each_cell(self.dims, range, |c| {
                         items[next[c] as usize] = i as u32;
                         next[c] += 1;
@@ -150,6 +158,50 @@ impl ColliderGrid {
             std::array::from_fn(|k| (index(lo[k], k), index(hi[k], k)));
         let count: usize = range.iter().map(|(a, b)| b - a + 1).product();
         (count <= MAX_CELLS).then_some(range)
+    }
+
+    /// Whether there is a grid (enough colliders for one).
+    pub fn is_active(&self) -> bool {
+        self.active
+    }
+
+    /// As [`ColliderGrid::near`], into `out` without shared scratch (so jobs on several
+    /// threads can query at once): the number written, or `None` when every collider must be
+    /// tested (no grid, a box over [`MAX_CELLS`] cells, or more colliders than `out` holds).
+    pub fn near_sorted(&self, lo: DVec3, hi: DVec3, out: &mut [u32]) -> Option<usize> {
+        if !self.active {
+            return None;
+        }
+        let range = self.cells(lo, hi)?;
+        let mut count = 0;
+        let mut overflow = false;
+        let mut take = |i: u32| match out.get_mut(count) {
+            Some(slot) => {
+                *slot = i;
+                count += 1;
+            }
+            None => overflow = true,
+        };
+        self.large.iter().for_each(|&i| take(i));
+        let (start, items) = (&self.start, &self.items);
+        each_cell(self.dims, range, |c| {
+            items[start[c] as usize..start[c + 1] as usize]
+                .iter()
+                .for_each(|&i| take(i));
+        });
+        if overflow {
+            return None;
+        }
+        let found = &mut out[..count];
+        found.sort_unstable();
+        let mut kept = 0;
+        for k in 0..count {
+            if k == 0 || found[k] != found[kept - 1] {
+                found[kept] = found[k];
+                kept += 1;
+            }
+        }
+        Some(kept)
     }
 
     /// Fills `out` with the colliders a particle with box `(lo, hi)` may meet, each once, in
@@ -186,12 +238,12 @@ fn bounded(length: f64) -> bool {
     length.is_finite() && length < 1e12
 }
 
-/// The largest bounded side of a box (0 if none is).
-fn largest_side(lo: DVec3, hi: DVec3) -> f64 {
-    (hi - lo)
-        .to_array()
-        .into_iter()
-        .filter(|&s| bounded(s))
+/// The largest side of a box off the `free` axes (∞ if one is unbounded).
+fn largest_side(free: [bool; 3], lo: DVec3, hi: DVec3) -> f64 {
+    let sides = (hi - lo).to_array().into_iter().zip(free);
+    sides
+        .filter(|&(_, free)| !free)
+        .map(|(side, _)| if bounded(side) { side } else { f64::INFINITY })
         .fold(0.0, f64::max)
 }
 

@@ -10,6 +10,7 @@
 //! that exceeds it.
 
 use super::Particles;
+use super::collider_grid::ColliderGrid;
 use super::shared::Shared;
 use glam::{DQuat, DVec3};
 use std::ops::Range;
@@ -68,6 +69,23 @@ pub enum Shape {
         /// Radius.
         radius: f64,
     },
+}
+
+impl Shape {
+    /// Axis-aligned bounds: a sphere's box; unbounded for the others (they reach everywhere).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Shape;
+    /// use glam::DVec3;
+    /// let ball = Shape::Sphere { center: DVec3::X, radius: 0.5 };
+    /// assert_eq!(ball.bounds(), (DVec3::new(0.5, -0.5, -0.5), DVec3::new(1.5, 0.5, 0.5)));
+    /// ```
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        match *self {
+            Shape::Sphere { center, radius } => (center - radius, center + radius),
+            _ => (DVec3::NEG_INFINITY, DVec3::INFINITY),
+        }
+    }
 }
 
 /// A collider: a shape and its surface response.
@@ -194,62 +212,187 @@ pub fn constrain(particles: &mut Particles, colliders: &[Collider], gravity_step
         radius,
         ..
     } = particles;
+    let mut grid = ColliderGrid::default();
+    grid.build(colliders.iter().map(|c| c.shape.bounds()));
     constrain_range(
         &Shared::new(position),
         &Shared::new(previous),
         (inverse_mass, radius),
-        colliders,
+        (colliders, &grid),
         range,
         gravity_step,
     );
 }
 
 /// [`constrain`] for the particles in `range` (which no other task touches), given their
-/// inverse masses and radii.
+/// inverse masses and radii. With a `grid` over the colliders (see
+/// [`ColliderGrid`](super::collider_grid::ColliderGrid)) each particle meets only the colliders
+/// near it, in their order: the same result as meeting them all.
 pub(crate) fn constrain_range(
     position: &Shared<DVec3>,
     previous: &Shared<DVec3>,
     (inverse_mass, radii): (&[f64], &[f64]),
-    colliders: &[Collider],
+    (colliders, grid): (&[Collider], &ColliderGrid),
     range: Range<usize>,
     gravity_step: f64,
 ) {
     let resting_speed = 2.0 * gravity_step;
-    for collider in colliders {
-        for i in range.clone() {
-            if inverse_mass[i] <= 0.0 {
-                continue;
-            }
-            let radius = radii[i];
-            let x = position.get(i);
-            let velocity = x - previous.get(i);
-            match collider.shape {
-                Shape::Inside { min, max } | Shape::RotatedInside { min, max, .. } => {
-                    let frame = match collider.shape {
-                        Shape::RotatedInside {
-                            pivot, rotation, ..
-                        } => Some((pivot, rotation)),
-                        _ => None,
-                    };
-                    let particle = (x, velocity, radius);
-                    let inside = keep_inside(particle, frame, (min, max), collider, resting_speed);
-                    if let Some((clamped, velocity)) = inside {
-                        position.set(i, clamped);
-                        previous.set(i, clamped - velocity);
-                    }
-                }
-                ref shape => {
-                    let material = (collider.restitution, collider.friction);
-                    if let Some((normal, depth)) = contact(shape, x, radius) {
-                        let projected = x + normal * depth;
-                        position.set(i, projected);
-                        previous.set(
-                            i,
-                            projected - respond(velocity, normal, material, resting_speed),
-                        );
-                    }
+    if !grid.is_active() {
+        for collider in colliders {
+            for i in range.clone() {
+                if inverse_mass[i] > 0.0 {
+                    let state = (position, previous, radii[i]);
+                    constrain_particle(state, i, collider, resting_speed);
                 }
             }
         }
+        return;
+    }
+    let mut near = [0u32; NEAR];
+    for i in range {
+        if inverse_mass[i] <= 0.0 {
+            continue;
+        }
+        // (Grown by what a contact may push it: its radius and its motion again.)
+        let x = position.get(i);
+        let reach = 2.0 * radii[i] + (x - previous.get(i)).length();
+        let state = (position, previous, radii[i]);
+        match grid.near_sorted(x - reach, x + reach, &mut near) {
+            Some(count) => near[..count]
+                .iter()
+                .for_each(|&k| constrain_particle(state, i, &colliders[k as usize], resting_speed)),
+            None => colliders
+                .iter()
+                .for_each(|collider| constrain_particle(state, i, collider, resting_speed)),
+        }
+    }
+}
+
+/// Colliders a particle's query holds at most (more: it meets them all).
+const NEAR: usize = 64;
+
+/// One collider's constraint on particle `i`.
+fn constrain_particle(
+    (position, previous, radius): (&Shared<DVec3>, &Shared<DVec3>, f64),
+    i: usize,
+    collider: &Collider,
+    resting_speed: f64,
+) {
+    let x = position.get(i);
+    let velocity = x - previous.get(i);
+    match collider.shape {
+        Shape::Inside { min, max } | Shape::RotatedInside { min, max, .. } => {
+            let frame = match collider.shape {
+                Shape::RotatedInside {
+                    pivot, rotation, ..
+                } => Some((pivot, rotation)),
+                _ => None,
+            };
+            let particle = (x, velocity, radius);
+            let inside = keep_inside(particle, frame, (min, max), collider, resting_speed);
+            if let Some((clamped, velocity)) = inside {
+                position.set(i, clamped);
+                previous.set(i, clamped - velocity);
+            }
+        }
+        ref shape => {
+            let material = (collider.restitution, collider.friction);
+            if let Some((normal, depth)) = contact(shape, x, radius) {
+                let projected = x + normal * depth;
+                position.set(i, projected);
+                previous.set(
+                    i,
+                    projected - respond(velocity, normal, material, resting_speed),
+                );
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With the grid each particle meets only the colliders near it, in their order, which
+    /// must give what meeting them all gives, bit for bit: 2000 particles, moving, among 300
+    /// spheres of mixed sizes, a floor plane and a bounding box, 200 substeps.
+    #[test]
+    fn the_grid_changes_nothing_but_the_cost() {
+        let mut seed = 7u64;
+        let mut random = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut colliders = vec![
+            Collider {
+                shape: Shape::Plane {
+                    point: DVec3::ZERO,
+                    normal: DVec3::Y,
+                },
+                restitution: 0.2,
+                friction: 0.5,
+            },
+            Collider {
+                shape: Shape::Inside {
+                    min: DVec3::splat(-1.0),
+                    max: DVec3::splat(11.0),
+                },
+                restitution: 0.5,
+                friction: 0.1,
+            },
+        ];
+        for _ in 0..300 {
+            let center = DVec3::new(random(), random(), random()) * 10.0;
+            let radius = 0.05 + 0.4 * random() * random();
+            let (restitution, friction) = (random(), random());
+            let shape = Shape::Sphere { center, radius };
+            colliders.push(Collider {
+                shape,
+                restitution,
+                friction,
+            });
+        }
+        let mut particles = Particles::default();
+        for _ in 0..2000 {
+            let x = DVec3::new(random(), random(), random()) * 10.0;
+            let v = (DVec3::new(random(), random(), random()) - 0.5) * 0.05;
+            particles.push(x, x - v, 1.0, 0.02 + 0.05 * random(), 0);
+        }
+        let mut grid = ColliderGrid::default();
+        grid.build(colliders.iter().map(|c| c.shape.bounds()));
+        assert!(grid.is_active());
+        let none = ColliderGrid::default();
+        let run = |grid: &ColliderGrid| {
+            let mut p = particles.clone();
+            for _ in 0..200 {
+                for i in 0..p.len() {
+                    let v = p.position[i] - p.previous[i];
+                    p.previous[i] = p.position[i];
+                    p.position[i] += v + DVec3::new(0.0, -1e-3, 0.0);
+                }
+                let Particles {
+                    position,
+                    previous,
+                    inverse_mass,
+                    radius,
+                    ..
+                } = &mut p;
+                let (position, previous) = (Shared::new(position), Shared::new(previous));
+                let range = 0..inverse_mass.len();
+                let state = (&inverse_mass[..], &radius[..]);
+                constrain_range(&position, &previous, state, (&colliders, grid), range, 1e-3);
+            }
+            p
+        };
+        let (with, without) = (run(&grid), run(&none));
+        let bits = |p: &Particles| {
+            p.position
+                .iter()
+                .map(|x| x.to_array().map(f64::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&with), bits(&without));
     }
 }

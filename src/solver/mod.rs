@@ -255,6 +255,8 @@ pub struct Solver {
     pub(crate) tethers_stale: bool,
     /// See [`Solver::verlet_substep`].
     pub(crate) verlet_substep: Option<f64>,
+    /// The crate's colliders by place (rebuilt when they change).
+    pub(crate) collider_grid: collider_grid::ColliderGrid,
 }
 
 impl Solver {

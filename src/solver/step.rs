@@ -175,6 +175,10 @@ impl Solver {
             .hierarchies
             .refresh(&self.particles, &self.sticks);
         let changed = self.last_config != Some(*config) || self.colliders != self.last_colliders;
+        if self.colliders != self.last_colliders || !self.collider_grid.is_active() {
+            let bounds = self.colliders.iter().map(|c| c.shape.bounds());
+            self.collider_grid.build(bounds);
+        }
         if changed || config.sleep.is_none() {
             self.wake_all();
         }
@@ -419,7 +423,7 @@ impl Solver {
                     &position,
                     &previous,
                     (&particles.inverse_mass, &particles.radius),
-                    &self.colliders,
+                    (&self.colliders, &self.collider_grid),
                     slots,
                     gravity_step,
                 );
