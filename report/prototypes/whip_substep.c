@@ -12,7 +12,11 @@
 //              with the constraints' curvature (lambda_k (I - n n^T)/d_k blocks): per particle
 //              a node (x_j, lambda_{j-1}), block tridiagonal with 3x3 blocks (4x4 in 3D), solved
 //              by block Thomas; lambda = 0 to start;
-//   kkt-warm : the same, lambda starting from the last substep's multipliers.
+//   kkt-warm : the same, lambda starting from the last substep's multipliers;
+//   fixed    : Newton with the directions frozen at the prediction's normals (exact Newton for
+//              fixed directions, as SHAKE's passes are), the projection where it fails;
+//   ls10     : where SHAKE fails, up to 10 more SHAKE passes with a backtracking line search on
+//              sum C^2 (does SHAKE have a root there?), then the projection.
 // Prints Newton passes (and those spent projecting), substeps by kind, the largest link strain,
 // the energy lost of what the fall released and the CPU time (the 3x3 blocks are inverted
 // naively: a KKT pass costs several scalar passes here).
@@ -56,7 +60,9 @@ static void move(int k, double d, V dir) { // stick k's multiplier by d along di
   x[k + 1].x += w[k + 1] * dir.x * d; x[k + 1].y += w[k + 1] * dir.y * d;
 }
 // One Newton pass; shake: correction along r (start directions), else along current normals.
-static void pass(int shake) {
+static void pass_a(int shake, double alpha);
+static void pass(int shake) { pass_a(shake, 1.0); }
+static void pass_a(int shake, double alpha) {
   static V n[N], dir[N];
   static double a[N], b[N], c[N], rhs[N], d[N];
   for (int i = 0; i < N; i++) {
@@ -81,6 +87,7 @@ static void pass(int shake) {
   V moveby[N + 1];
   memset(moveby, 0, sizeof moveby);
   for (int i = 0; i < N; i++) {
+    d[i] *= alpha;
     lam[i] += d[i];
     moveby[i].x -= dir[i].x * d[i]; moveby[i].y -= dir[i].y * d[i];
     moveby[i + 1].x += dir[i].x * d[i]; moveby[i + 1].y += dir[i].y * d[i];
@@ -88,6 +95,8 @@ static void pass(int shake) {
   for (int j = 0; j <= N; j++) { x[j].x += w[j] * moveby[j].x; x[j].y += w[j] * moveby[j].y; }
   passes++;
 }
+static int ls_budget = 0; static long ls_rescued, ls_passes;
+static int shake_ls(void);
 static void predict(double h, double damp) {
   (void)damp;
   for (int i = 0; i <= N; i++) {
@@ -116,11 +125,41 @@ static int shake(double warm_scale) {
   double prev = INFINITY;
   for (int k = 0; ; k++) {
     if (e <= TOL) return 1;
-    if (k == 3 || e > 0.1 * prev) { memcpy(x, save, sizeof save); return 0; }
+    if (k == 3 || e > 0.1 * prev) {
+      if (ls_budget && shake_ls()) { ls_rescued++; return 1; }
+      memcpy(x, save, sizeof save); return 0; }
     prev = e;
     pass(1);
     e = err();
   }
+}
+static double merit(void) {
+  double e = 0;
+  for (int i = 0; i < N; i++) {
+    double d = hypot(x[i + 1].x - x[i].x, x[i + 1].y - x[i].y);
+    e += (d - L) * (d - L);
+  }
+  return e;
+}
+// SHAKE continued by damped Newton (backtracking on sum C^2) from where it stopped.
+static int shake_ls(void) {
+  double e = err(), m = merit();
+  for (int k = 0; k < ls_budget; k++) {
+    if (e <= TOL) return 1;
+    V save[N + 1]; double lsave[N];
+    memcpy(save, x, sizeof save); memcpy(lsave, lam, sizeof lsave);
+    double a = 1; int ok = 0;
+    for (int t = 0; t < 8; t++) {
+      pass_a(1, a); ls_passes++;
+      double m2 = merit();
+      if (m2 < m) { m = m2; ok = 1; break; }
+      memcpy(x, save, sizeof save); memcpy(lam, lsave, sizeof lsave);
+      a *= 0.5;
+    }
+    if (!ok) return 0;
+    e = err();
+  }
+  return e <= TOL;
 }
 static void project(void) {
   memset(lam, 0, sizeof lam);
@@ -245,6 +284,36 @@ static void project_kkt(void) {
   if (kkt_warm) memcpy(lam, warm, sizeof lam); else memset(lam, 0, sizeof lam);
   for (int k = 0; k < 32 && err() > TOL; k++) { kkt_pass(); proj_passes++; }
 }
+// Newton with the correction directions frozen at the prediction's normals (exact Newton for
+// fixed directions, as SHAKE's passes are): returns passes, or -1 if it did not converge.
+static long fixed_fail;
+static int project_fixed(int warmed) {
+  V save[N + 1];
+  memcpy(save, x, sizeof save);
+  for (int i = 0; i < N; i++) {
+    double dx = x[i + 1].x - x[i].x, dy = x[i + 1].y - x[i].y, l = hypot(dx, dy);
+    r[i] = (V){dx / l, dy / l};
+  }
+  double e0 = err();
+  memset(lam, 0, sizeof lam);
+  if (warmed) {
+    for (int i = 0; i < N; i++) move(i, warm[i], r[i]);
+    if (err() > e0) { memcpy(x, save, sizeof save); memset(lam, 0, sizeof lam); }
+  }
+  double e = err(), prev = INFINITY;
+  for (int k = 0; k < 32; k++) {
+    if (e <= TOL) return 1;
+    if (e > prev) break;
+    prev = e;
+    pass(1); proj_passes++;
+    e = err();
+  }
+  if (e <= TOL) return 1;
+  fixed_fail++;
+  memcpy(x, save, sizeof save);
+  return 0;
+}
+static int use_fixed;
 static int fell_back;
 static int use_kkt;
 // One substep of length h; mode 0: project on failure, 1: halve on failure.
@@ -272,15 +341,20 @@ static void substep(double h, int mode, int depth) {
     return;
   }
   projected++;
-  if (use_kkt) project_kkt(); else project();
+  if (use_kkt) project_kkt();
+  else if (!use_fixed || !project_fixed(use_fixed == 2)) project();
   memcpy(warm, lam, sizeof warm);
   if (depth == 0) fell_back = (ok == 0);
 }
 int main(void) {
   const double h = 1.0 / 64 / 8;
-  for (int mode = 0; mode < 4; mode++) {
-    use_kkt = mode >= 2;
+  for (int mode = 0; mode < 8; mode++) {
+    if (mode == 5 || mode == 7) continue; // (fixed directions warm-started; 40 line-search passes: as 4 and 6)
+    ls_budget = mode == 6 ? 10 : mode == 7 ? 40 : 0; ls_rescued = ls_passes = 0;
+    use_kkt = mode == 2 || mode == 3;
+    if (mode >= 6) use_kkt = 0;
     kkt_warm = mode == 3;
+    use_fixed = mode == 4 ? 1 : mode == 5 ? 2 : 0; fixed_fail = 0;
     for (int i = 0; i <= N; i++) { x[i] = (V){i * L, 0}; xp[i] = x[i]; w[i] = 1; }
     w[0] = 0; w[N] = 1.0 / TIP;
     memset(warm, 0, sizeof warm);
@@ -295,8 +369,10 @@ int main(void) {
     double e = energy(h);
     double cpu = (double)(clock() - t0) / CLOCKS_PER_SEC;
     printf("%-8s passes %6ld, %ld of them projecting (SHAKE ok %ld, failed %ld, projected %ld, halved %ld) max strain %.1e, energy lost %.1f %% of the fall's, %.0f ms CPU\n",
-           mode == 3 ? "kkt-warm" : mode == 2 ? "kkt" : mode ? "halve" : "project", passes, proj_passes, shake_ok, shake_failed, projected, halved, strain,
+           mode == 7 ? "ls40" : mode == 6 ? "ls10" : mode == 5 ? "fix-warm" : mode == 4 ? "fixed" : mode == 3 ? "kkt-warm" : mode == 2 ? "kkt" : mode ? "halve" : "project", passes, proj_passes, shake_ok, shake_failed, projected, halved, strain,
            100 * (e0 - e) / (e0 - floor), 1e3 * cpu);
+    if (ls_budget) printf("   line search rescued %ld SHAKE substeps, %ld passes in them\n", ls_rescued, ls_passes);
+    if (use_fixed) printf("   fixed-direction Newton failed in %ld substeps\n", fixed_fail);
   }
   return 0;
 }
