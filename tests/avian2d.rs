@@ -278,11 +278,39 @@ fn a_free_rope_and_its_body_keep_their_momentum_whatever_the_rope_substeps() {
                 .sum();
             ropes + app.world().get::<LinearVelocity>(body).unwrap().0 * 1.0
         };
+        // Energy: the rope's (its lines keep theirs) and the box's, against the start's 0.25 J.
+        let energy = |app: &App| {
+            let state = app.world().resource::<VerletState>();
+            let (solver, particles) = (&state.solver, &state.solver.particles);
+            let ropes: f64 = (rope.particles.iter())
+                .map(|&p| state.slot(p).unwrap())
+                .map(|slot| {
+                    let (i, h) = (slot as usize, solver.state_substep_of(slot).unwrap());
+                    let v = (particles.position[i] - particles.previous[i]) / h;
+                    0.5 * v.length_squared() / particles.inverse_mass[i]
+                })
+                .sum();
+            let world = app.world();
+            let v = world.get::<LinearVelocity>(body).unwrap().0;
+            let w = world.get::<AngularVelocity>(body).unwrap().0;
+            let inertia = 1.0 / world.get::<ComputedAngularInertia>(body).unwrap().inverse();
+            ropes + f64::from(0.5 * v.length_squared() + 0.5 * inertia * w * w)
+        };
         let before = Vec2::new(0.0, 0.5); // five 0.1 kg particles at 1 m/s
-        step(&mut app, 64);
+        let mut highest: f64 = 0.0;
+        for _ in 0..64 {
+            step(&mut app, 1);
+            highest = highest.max(energy(&app));
+        }
         let after = momentum(&app);
         let turned = app.world().get::<Rotation>(body).unwrap().as_radians();
-        println!("{settings:?}: momentum {before} → {after}, the box turned {turned} rad");
+        println!(
+            "{settings:?}: momentum {before} → {after}, energy at most {highest:.4} J of 0.25, the box turned {turned} rad"
+        );
+        assert!(
+            highest < 0.25 * 1.002,
+            "{settings:?}: energy rose to {highest} J"
+        );
         assert!(
             turned.abs() > 0.1,
             "the rope swung the box round: {turned} rad"
@@ -991,4 +1019,81 @@ fn a_rope_never_collides_with_any_of_the_bodies_hung_on_it() {
     println!("rope hangs {off_line:.2e} m off the vertical; {contacts} contacts in the last step");
     assert_eq!(contacts, 0, "the rope touched its own lanterns");
     assert!(off_line < 1e-3, "the rope was pushed aside: {off_line} m");
+}
+
+#[test]
+fn an_inelastic_hit_makes_no_energy_whatever_the_particle_substeps() {
+    // No gravity: a 1 kg particle at 2 m/s hits a resting 0.25 kg ball head-on, restitution 0:
+    // they should move on together (1.6 m/s) with 80 % of the energy at most — also when the
+    // particle takes 2 of the step's 8 substeps (a body answers a velocity impulse at once,
+    // whatever its substep: before, the ball left at 4× the particle's speed, 125 % energy).
+    for settings in [None, Some(IslandOverride::new(2, 1))] {
+        let mut app = app(Vec2::ZERO);
+        let ball = spawn(
+            &mut app,
+            (
+                RigidBody::Dynamic,
+                Collider::circle(0.1),
+                Mass(0.25),
+                Restitution::new(0.0),
+                Transform::from_xyz(0.5, 0.0, 0.0),
+            ),
+        );
+        let p = spawn(
+            &mut app,
+            Particle::new(Vec3::ZERO)
+                .with_radius(0.02)
+                .with_velocity(Vec3::new(2.0, 0.0, 0.0), DT),
+        );
+        if let Some(settings) = settings {
+            app.world_mut().entity_mut(p).insert(settings);
+        }
+        keep_the_default_substeps(&mut app);
+        step(&mut app, 32);
+        let particle_speed = particle(&app, p).velocity(DT).x;
+        let ball_speed = app.world().get::<LinearVelocity>(ball).unwrap().0.x;
+        let energy = 0.5 * particle_speed * particle_speed + 0.5 * 0.25 * ball_speed * ball_speed;
+        println!(
+            "{settings:?}: particle {particle_speed:.4} m/s, ball {ball_speed:.4} m/s, energy {:.1} % of 2 J",
+            energy / 2.0 * 100.0
+        );
+        assert!(
+            energy <= 1.6 * 1.01,
+            "{settings:?}: energy {energy} J from 2 J"
+        );
+        assert!(
+            (ball_speed - particle_speed).abs() < 0.05,
+            "{settings:?}: {particle_speed} / {ball_speed}"
+        );
+    }
+}
+
+#[test]
+fn a_fast_particle_with_more_substeps_than_the_step_still_meets_a_wall() {
+    // 20 m/s (0.31 m per step) towards a 2 cm wall 0.85 m away (reached in the third step), the
+    // particle's island taking 32 substeps where the step's default is 8: the wall must be
+    // gathered for the step it is reached in (before: the reach was the last substep's motion
+    // × 8, a quarter of the step's).
+    let mut app = app(Vec2::ZERO);
+    spawn(
+        &mut app,
+        (
+            RigidBody::Static,
+            Collider::rectangle(0.02, 2.0),
+            Transform::from_xyz(0.86, 0.0, 0.0),
+        ),
+    );
+    let p = spawn(
+        &mut app,
+        (
+            Particle::new(Vec3::ZERO)
+                .with_radius(0.01)
+                .with_velocity(Vec3::new(20.0, 0.0, 0.0), DT),
+            IslandOverride::new(32, 1),
+        ),
+    );
+    step(&mut app, 8);
+    let x = particle(&app, p).position.x;
+    println!("the particle is at x = {x} (the wall's face at 0.85)");
+    assert!(x < 0.85, "passed through the wall: x = {x}");
 }

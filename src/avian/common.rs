@@ -278,8 +278,9 @@ fn gather(
             frozen: coupled.frozen,
         };
         gather_attachments(coupled, state, &world, &attachments);
-        island_bounds(state, f64::from(config.substeps), &mut coupled.island_bounds);
         let step = time.delta_secs_f64();
+        let h = step / f64::from(config.substeps.max(1));
+        island_bounds(state, (step, h), &mut coupled.island_bounds);
         gather_colliders(coupled, &world, &colliders, &coupling, step);
         let layers = || layered.iter().map(|(e, l, c)| (e, to_layers(*l), c));
         per_slot(state, layers, Layers::default(), &mut coupled.external.particle_layers);
@@ -489,12 +490,15 @@ fn proxy(
 }
 
 /// Bounds of every island's particles, grown by their radii and what they can move in a step
-/// (`substeps` × their last substep's displacement). One box for all if the islands are stale.
-fn island_bounds(state: &VerletState, substeps: f64, out: &mut Vec<(DVec3, DVec3)>) {
+/// (`step` × their velocity). One box for all if the islands are stale.
+fn island_bounds(state: &VerletState, (step, h): (f64, f64), out: &mut Vec<(DVec3, DVec3)>) {
     out.clear();
     let solver = &state.solver;
     let bounds = |range: std::ops::Range<usize>| {
         let particles = &solver.particles;
+        // (`x − x*` is the velocity times the substep the island's state refers to.)
+        let first = range.start as u32;
+        let substeps = step / solver.state_substep_of(first).unwrap_or(h);
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for i in range {
             let x = particles.position[i];

@@ -8,15 +8,17 @@
 //! later (a Gauss–Seidel pass between a rope and a 100× heavier body would carry ~1 % of the
 //! correction per substep). After the relaxation ([`release`]) the particle's displacement is
 //! handed to the body as a positional correction at the anchor, the particle is put back on the
-//! anchor, and its own mass is restored. The correction keeps momentum exactly: the rope's
-//! impulse on the lumped particle, `J = Δx / w_lumped`, is shared between the body and the
-//! particle riding its anchor, `p + m·W(r) p = J` with `W(r)` the body's inverse mass matrix at
-//! the anchor (along the pull direction this moves the anchor by `Δx`). Static and kinematic
-//! bodies make the particle immovable: it follows the body like a pin.
+//! anchor, and its own mass is restored. The correction keeps momentum (exactly for one
+//! attachment per body): the rope's impulse on the lumped particle, `J = Δx / w_lumped`, is
+//! shared between the body and the particle riding its anchor, `p + m·W(r) p = J` with `W(r)`
+//! the body's inverse mass matrix at the anchor (along the pull direction this moves the anchor
+//! by `Δx`). Static and kinematic bodies make the particle immovable: it follows the body like a
+//! pin.
 //!
-//! An island that takes fewer substeps than the bodies (an `IslandOverride`) sees each body
-//! heavier by their ratio `h_body/h` and hands it `J·h_body/h`: the momentum its substep
-//! delivered, spread over the body's shorter substep.
+//! An island that takes fewer substeps than the bodies (an `IslandOverride`) moves the body's
+//! anchor the same way, and the velocity that correction gives over the body's shorter substep
+//! is brought back to what the constraints solved for (`Δx / h`, momentum `J / h`) by a
+//! velocity impulse after the body's substep (`AttachmentScratch::velocity_corrections`).
 //!
 //! This is the lumped-mass form of a zero-length XPBD joint between a particle and a rigid body
 //! (Müller et al. 2020, "Detailed Rigid Body Simulation with Extended Position Based Dynamics",
@@ -80,6 +82,10 @@ pub struct AttachmentScratch {
     body_inverse_mass: Vec<f64>,
     /// The bodies' substep over the particle's, `h_body/h` (1 when it takes every substep).
     time_ratio: Vec<f64>,
+    /// Velocity impulses `(body, arm, impulse × h_body)` to apply after the bodies' substep
+    /// ends ([`Body::end_substep`]): what makes a correction from a longer substep the velocity
+    /// the constraints solved for (see [`release`]).
+    pub velocity_corrections: Vec<(u32, DVec3, DVec3)>,
     /// Where the particle was placed before the relaxation.
     placed: Vec<DVec3>,
     /// Attachments per body.
@@ -118,8 +124,7 @@ pub fn lump(
         };
         let r = body.rotation * a.anchor;
         let shares = f64::from(scratch.per_body[a.body as usize]);
-        // (Seen from a longer substep the body is heavier: it answers over its own.)
-        let w_body = body.inverse_mass_at(r, a.direction) * shares * ratio;
+        let w_body = body.inverse_mass_at(r, a.direction) * shares;
         scratch.body_inverse_mass[k] = w_body;
         scratch.time_ratio[k] = ratio;
         let anchor = a.world_anchor(body);
@@ -143,8 +148,9 @@ pub fn release(
     attachments: &mut [Attachment],
     bodies: &mut [Body],
     particles: &mut Particles,
-    scratch: &AttachmentScratch,
+    scratch: &mut AttachmentScratch,
 ) {
+    scratch.velocity_corrections.clear();
     for (k, a) in attachments.iter_mut().enumerate() {
         let w_body = scratch.body_inverse_mass[k];
         if w_body.is_nan() {
@@ -156,14 +162,21 @@ pub fn release(
         if w_body > 0.0 && w_lumped > 0.0 && moved != DVec3::ZERO {
             let body = &mut bodies[a.body as usize];
             let r = body.rotation * a.anchor;
-            // The impulse J the constraints gave the lumped particle, in the body's substep,
-            // shared between the body (p) and the particle riding its anchor: p + m·W p = J.
-            let impulse = moved / w_lumped * scratch.time_ratio[k];
+            // The impulse J the constraints gave the lumped particle, shared between the body
+            // (p) and the particle riding its anchor: p + m·W p = J.
+            let impulse = moved / w_lumped;
             let own_mass = 1.0 / scratch.own_inverse_mass[k];
             let share = DMat3::IDENTITY + body.inverse_mass_matrix_at(r) * own_mass;
             let p = share.inverse() * impulse;
             if p.is_finite() {
                 body.correct(r, p);
+                // Over the body's shorter substep that correction is too fast a velocity:
+                // the rest is taken back after it (`h_body/h − 1` of it).
+                let ratio = scratch.time_ratio[k];
+                if ratio != 1.0 {
+                    let slower = (a.body, r, p * (ratio - 1.0));
+                    scratch.velocity_corrections.push(slower);
+                }
             }
             a.direction = moved.normalize();
         }
@@ -202,7 +215,7 @@ mod tests {
         // Lumped: 0.1 kg particle + 2 kg body along Y (the arm is along Y: no turning).
         assert!((1.0 / particles.inverse_mass[0] - 2.1).abs() < 1e-12);
         particles.position[0].y += 0.3; // a rope pulled it up
-        release(&mut attachments, &mut bodies, &mut particles, &scratch);
+        release(&mut attachments, &mut bodies, &mut particles, &mut scratch);
         assert!((bodies[0].position.y - 0.3).abs() < 1e-12);
         assert!((particles.position[0].y - 1.3).abs() < 1e-12);
         assert_eq!(particles.inverse_mass[0], 10.0);
@@ -227,7 +240,7 @@ mod tests {
         assert_eq!(particles.inverse_mass[0], 0.0);
         assert_eq!(particles.position[0], DVec3::new(0.5, 0.0, 0.0));
         assert_eq!(particles.previous[0], DVec3::ZERO);
-        release(&mut attachments, &mut bodies, &mut particles, &scratch);
+        release(&mut attachments, &mut bodies, &mut particles, &mut scratch);
         assert_eq!(particles.inverse_mass[0], 1.0);
         assert_eq!(bodies[0].position, DVec3::new(0.5, 0.0, 0.0));
     }

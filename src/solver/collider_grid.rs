@@ -7,8 +7,10 @@
 //! or covering more than [`MAX_CELLS`] cells (a ground, a wall) goes on a list every particle
 //! tests; the grid spans the others (a particle outside it asks for the edge cells). A particle
 //! asks for the cells its swept box — grown by its radius and by what a contact may push it,
-//! its radius and its motion — overlaps, and gets each collider once, in the colliders' order:
-//! the contacts resolve as without the grid, in the same order. An axis the colliders do not
+//! its radius, its motion and the largest margin — overlaps, and gets each collider once, in
+//! the colliders' order: the contacts resolve as without the grid, in the same order, unless a
+//! contact pushes a particle farther than that (out of a deep overlap, or by a fast moving
+//! collider), when a collider past the box waits for the next substep. An axis the colliders do not
 //! bound (2D shapes extend through every depth) is one cell wide; at most a few cells per
 //! collider. Below [`MIN_COLLIDERS`] colliders there is no grid. Counting sort into flat arrays:
 //! no allocation once they have grown.
@@ -50,6 +52,8 @@ pub struct ColliderGrid {
 impl ColliderGrid {
     /// Rebuilds the grid over `bounds` (each collider's placed bounds, grown by its margin).
     pub fn build(&mut self, bounds: impl Iterator<Item = (DVec3, DVec3)> + Clone) {
+        // (Corners in order whatever the input: a negative radius or margin.)
+        let bounds = bounds.map(|(lo, hi)| (lo.min(hi), lo.max(hi)));
         let n = bounds.clone().count();
         self.active = n >= MIN_COLLIDERS;
         if !self.active {
@@ -91,7 +95,7 @@ impl ColliderGrid {
             if dims.iter().product::<usize>() <= 4 * n + 64 {
                 break;
             }
-            size *= 1.5;
+            size *= 2.0;
         }
         self.dims = dims;
         self.origin = lo;

@@ -142,9 +142,10 @@ pub struct ContactParticle<'a> {
     /// `|g|·h²` of its substep (for the resting speed).
     pub gravity_step: f64,
     /// The bodies' substep over this particle's, `h_body/h` (1 when its island takes every
-    /// substep, less when an `IslandOverride` gives it fewer): a body answers over its own
-    /// substep, so the particle sees it that much heavier and its surface moving that much
-    /// faster per particle substep, and momentum is kept.
+    /// substep, less when an `IslandOverride` gives it fewer): a body turns a positional
+    /// correction into velocity over its own substep, so the particle's penetration is split as
+    /// if the body were that much heavier (its velocity impulse is not), and its surface moves
+    /// that much farther per particle substep; momentum and energy are kept.
     pub time_ratio: f64,
     /// The particle's own `(restitution, friction)`, if it asks for one: each is averaged with
     /// the collider's (avian's default combine rule); a NaN field leaves the collider's value.
@@ -307,10 +308,12 @@ fn resolve<S>(
     let body = &mut bodies[collider.body as usize];
     // The surface point: one radius minus the penetration behind the particle's centre.
     let arm = *position - normal * (radius - depth) - body.position;
-    // (In the particle's substep; the body answers over its own, `time_ratio` of it.)
-    let w_body = body.inverse_mass_at(arm, normal) * time_ratio;
+    let w_body = body.inverse_mass_at(arm, normal);
+    // The penetration is split as if the body were heavier by the substeps' ratio: it turns
+    // its correction into velocity over its own, shorter substep. A velocity impulse it
+    // answers at once, whatever its substep: there its own inverse mass.
     let share = w_particle / (w_particle + w_body);
-    let lambda = depth / (w_particle + w_body);
+    let lambda = depth / (w_particle + w_body * time_ratio);
     // Velocities (per particle substep) before the projection, relative to the surface point.
     let surface_motion = surface_motion(body, arm) / time_ratio;
     let velocity = *position - *previous;

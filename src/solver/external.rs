@@ -98,6 +98,8 @@ pub struct External<S> {
     reach: (DVec3, DVec3),
     /// The placed colliders by place (this substep), and a particle's query.
     grid: ColliderGrid,
+    /// The largest collider margin (this substep).
+    largest_margin: f64,
     near: Vec<u32>,
 }
 
@@ -121,6 +123,7 @@ impl<S> Default for External<S> {
             max_radius: 0.0,
             reach: (DVec3::ZERO, DVec3::ZERO),
             grid: ColliderGrid::default(),
+            largest_margin: 0.0,
             near: Vec::new(),
         }
     }
@@ -205,7 +208,7 @@ impl<S: ContactShape> External<S> {
             &mut self.attachments,
             &mut self.bodies,
             &mut solver.particles,
-            &self.scratch,
+            &mut self.scratch,
         );
     }
 
@@ -227,6 +230,10 @@ impl<S: ContactShape> External<S> {
         for &(body, arm, impulse) in &self.impulses {
             self.bodies[body as usize].push(arm, impulse);
         }
+        for &(body, arm, slower) in &self.scratch.velocity_corrections {
+            self.bodies[body as usize].push(arm, slower / self.h);
+        }
+        self.scratch.velocity_corrections.clear();
     }
 
     /// Each collider's pose and bounds for this substep, and the bounds of them all (grown by
@@ -243,6 +250,7 @@ impl<S: ContactShape> External<S> {
         }
         self.reach = (lo - self.max_radius, hi + self.max_radius);
         let margins = self.colliders.iter().map(|c| c.margin);
+        self.largest_margin = margins.clone().fold(0.0, f64::max);
         let bounds = self.placed.iter().zip(margins);
         let bounds = bounds.map(|(&(_, a, b), margin)| (a - margin, b + margin));
         self.grid.build(bounds);
@@ -277,7 +285,7 @@ impl<S: ContactShape> External<S> {
             // The colliders it may meet: its swept box grown by its radius and by what a
             // contact may push it (its radius and its motion again).
             let radius = particles.radius[slot];
-            let reach = radius * 2.0 + (x - before).length();
+            let reach = radius * 2.0 + (x - before).length() + self.largest_margin;
             let (box_lo, box_hi) = (x.min(before) - reach, x.max(before) + reach);
             let near = self.grid.near(box_lo, box_hi, &mut self.near);
             let (position, previous) =

@@ -690,6 +690,8 @@ impl Solver {
     /// Treats everything as one island in array order (the solver was not organized since its
     /// topology last changed). Allocates nothing once the lists have capacity.
     pub(crate) fn use_one_island(&mut self) {
+        // (The islands' states meet in one: in one convention, velocities kept.)
+        self.states_to_verlet_substep();
         let signature = self.signature();
         let islands = &mut self.islands;
         let asleep = islands.list.first().is_some_and(|i| i.asleep) && islands.list.len() == 1;

@@ -322,7 +322,7 @@ impl Solver {
     }
 
     /// The last step's global substep length (s, [`StepConfig::substep`]), `None` before the
-    /// first step. A particle's Verlet state `x − x*` is its velocity times the substep of its
+    /// first step ([`Solver::clear`] keeps it: states written after it keep their meaning). A particle's Verlet state `x − x*` is its velocity times the substep of its
     /// island ([`Solver::state_substep_of`]); a state written for no island yet (a new
     /// particle) or after [`Solver::organize`] refers to this one (to the first step's before
     /// the first step). Each step re-expresses every island's states for the substeps it takes

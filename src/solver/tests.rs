@@ -449,3 +449,33 @@ fn cuts_rebuild_the_tethers_once_before_the_next_step() {
         "no tether holds the cut-off part"
     );
 }
+
+/// A particle flying in an island of its own with 2 substeps (the step's: 8) keeps its speed
+/// when the solver falls back to one island (a particle added without `organize`): the island's
+/// states are brought to the solver's convention first (before: ×4 on the fallback step).
+#[test]
+fn the_one_island_fallback_keeps_every_velocity() {
+    let config = StepConfig {
+        gravity: DVec3::ZERO,
+        sleep: None,
+        ..StepConfig::default()
+    };
+    let mut solver = Solver::default();
+    let flyer = solver.add_particle(DVec3::ZERO, 1.0) as usize;
+    solver.particles.previous[flyer] = DVec3::new(-config.substep(), 0.0, 0.0); // 1 m/s
+    let settings = IslandSettings {
+        substeps: 2,
+        iterations: 1,
+    };
+    solver.island_settings.push((flyer as u32, settings));
+    let other = solver.add_particle(DVec3::Y * 10.0, 1.0);
+    solver.particles.previous[other as usize] = DVec3::new(0.0, 10.0 - config.substep(), 0.0);
+    solver.organize();
+    solver.step(&config);
+    solver.add_particle(DVec3::Y * 20.0, 1.0);
+    assert!(!solver.is_organized());
+    let before = solver.particles.position[flyer].x;
+    solver.step(&config);
+    let speed = (solver.particles.position[flyer].x - before) / config.timestep;
+    assert!((speed - 1.0).abs() < 1e-9, "{speed} m/s");
+}
