@@ -5,7 +5,7 @@
 //! cell is the size of the median collider (its largest bounded side), and each collider is
 //! listed in every cell its bounds (grown by its margin) overlap. One over four times that size
 //! or covering more than [`MAX_CELLS`] cells (a ground, a wall) goes on a list every particle
-//! tests; the grid spans the others (a particle outside it asks for the edge cells). A particle
+//! tests; the grid spans the others (a particle away from them meets only the large ones). A particle
 //! asks for the cells its swept box — grown by its radius and by what a contact may push it,
 //! its radius, its motion and the largest margin — overlaps, and gets each collider once, in
 //! the colliders' order: the contacts resolve as without the grid, in the same order, unless a
@@ -43,6 +43,8 @@ pub struct ColliderGrid {
     limit: f64,
     /// Axes most colliders leave unbounded (one cell wide).
     free: [bool; 3],
+    /// The bounds of the colliders in cells (a box away from them meets only the large ones).
+    span: (DVec3, DVec3),
     /// Scratch of the counting sort.
     next: Vec<u32>,
     /// Scratch: each collider's largest bounded side.
@@ -98,6 +100,7 @@ impl ColliderGrid {
             size *= 2.0;
         }
         self.dims = dims;
+        self.span = (lo, hi);
         self.origin = lo;
         self.inverse_cell = DVec3::from_array(std::array::from_fn(|k| {
             if dims[k] > 1 {
@@ -148,6 +151,12 @@ impl ColliderGrid {
         }
     }
 
+    /// Whether a box touches the bounds of the colliders in cells.
+    fn reaches(&self, lo: DVec3, hi: DVec3) -> bool {
+        let (a, b) = self.span;
+        lo.cmple(b).all() && hi.cmpge(a).all()
+    }
+
     /// The cell ranges `[lo, hi]` per axis a box covers, or `None` beyond [`MAX_CELLS`].
     fn cells(&self, lo: DVec3, hi: DVec3) -> Option<[(usize, usize); 3]> {
         let index = |v: f64, k: usize| -> usize {
@@ -177,6 +186,7 @@ impl ColliderGrid {
             return None;
         }
         let range = self.cells(lo, hi)?;
+        let away = !self.reaches(lo, hi);
         let mut count = 0;
         let mut overflow = false;
         let mut take = |i: u32| match out.get_mut(count) {
@@ -188,6 +198,7 @@ impl ColliderGrid {
         };
         self.large.iter().for_each(|&i| take(i));
         let (start, items) = (&self.start, &self.items);
+        let range = if away { EMPTY } else { range };
         each_cell(self.dims, range, |c| {
             items[start[c] as usize..start[c + 1] as usize]
                 .iter()
@@ -216,6 +227,7 @@ impl ColliderGrid {
             return None;
         }
         let range = self.cells(lo, hi)?;
+        let range = if self.reaches(lo, hi) { range } else { EMPTY };
         out.clear();
         self.query = self.query.wrapping_add(1);
         let query = self.query;
@@ -250,6 +262,9 @@ fn largest_side(free: [bool; 3], lo: DVec3, hi: DVec3) -> f64 {
         .map(|(side, _)| if bounded(side) { side } else { f64::INFINITY })
         .fold(0.0, f64::max)
 }
+
+/// No cell (for [`each_cell`]).
+const EMPTY: [(usize, usize); 3] = [(1, 0); 3];
 
 /// Calls `f` with the index of every cell in `range` (per axis, inclusive).
 fn each_cell(dims: [usize; 3], range: [(usize, usize); 3], mut f: impl FnMut(usize)) {
