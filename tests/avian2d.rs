@@ -912,10 +912,10 @@ fn a_body_lends_its_friction_to_colliders_without_one() {
 }
 
 #[test]
-fn a_collider_spawned_or_moved_into_a_sleeping_rope_wakes_it() {
+fn a_collider_spawned_moved_or_reshaped_into_a_sleeping_rope_wakes_it() {
     // A rope hangs asleep from a pin beside a static box; the box stays put for a second (the
     // rope sleeps on), then is moved into the rope: the rope wakes and is pushed aside. A box
-    // spawned into a second sleeping rope wakes that one too.
+    // spawned into a second sleeping rope, and one beside a third grown into it, wake theirs.
     let mut app = app(Vec2::new(0.0, -9.81));
     let rope_at = |app: &mut App, x: f32| {
         let world = app.world_mut();
@@ -927,30 +927,30 @@ fn a_collider_spawned_or_moved_into_a_sleeping_rope_wakes_it() {
         rope.particles[5]
     };
     let (moved_into, spawned_into) = (rope_at(&mut app, 0.0), rope_at(&mut app, 2.0));
-    let wall = spawn(
-        &mut app,
+    let grown_into = rope_at(&mut app, 4.0);
+    let beside = |x: f32| {
         (
             RigidBody::Static,
             Collider::rectangle(0.1, 0.4),
             // (Within the rope's bounds but clear of its particles: gathered every step.)
-            Transform::from_xyz(0.1, 0.6, 0.0),
-        ),
-    );
+            Transform::from_xyz(x, 0.6, 0.0),
+        )
+    };
+    let wall = spawn(&mut app, beside(0.1));
+    let grown = spawn(&mut app, beside(4.1));
     step(&mut app, 256);
     let asleep = |app: &App, p: Entity| app.world().resource::<VerletState>().is_sleeping(p);
+    let ropes = [moved_into, spawned_into, grown_into];
     assert!(
-        asleep(&app, moved_into) && asleep(&app, spawned_into),
+        ropes.iter().all(|&r| asleep(&app, r)),
         "the ropes fell asleep"
     );
     let gathered = app.world().resource::<AvianCouplingStats>().colliders;
     assert_eq!(
-        gathered, 1,
-        "the wall beside the rope is gathered (and does not wake it)"
+        gathered, 2,
+        "the walls beside the ropes are gathered (and do not wake them)"
     );
-    let before = (
-        particle(&app, moved_into).position,
-        particle(&app, spawned_into).position,
-    );
+    let before = ropes.map(|r| particle(&app, r).position);
     app.world_mut()
         .entity_mut(wall)
         .insert(Transform::from_xyz(0.03, 0.6, 0.0));
@@ -962,12 +962,18 @@ fn a_collider_spawned_or_moved_into_a_sleeping_rope_wakes_it() {
             Transform::from_xyz(2.03, 0.6, 0.0),
         ),
     );
+    app.world_mut()
+        .entity_mut(grown)
+        .insert(Collider::rectangle(0.3, 0.4));
     step(&mut app, 4);
-    let pushed = (
-        (particle(&app, moved_into).position - before.0).length(),
-        (particle(&app, spawned_into).position - before.1).length(),
-    );
+    let moved = |k: usize| (particle(&app, ropes[k]).position - before[k]).length();
+    let pushed = (moved(0), moved(1), moved(2));
     println!("rope ends pushed {pushed:?} m");
+    assert!(
+        pushed.2 > 0.01,
+        "the grown box pushed its rope: {} m",
+        pushed.2
+    );
     assert!(
         pushed.0 > 0.01,
         "the moved box pushed its rope: {} m",

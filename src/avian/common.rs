@@ -166,12 +166,12 @@ struct Coupled {
     frozen: bool,
     /// The particle entity of each attachment (same order as the core's list).
     attached: Vec<Entity>,
-    /// Per gathered collider: spawned or moved since the last step (it wakes the sleeping
-    /// islands it touches, as a moving body's colliders do).
+    /// Per gathered collider: spawned, moved or reshaped since the last step (it wakes the
+    /// sleeping islands it touches, as a moving body's colliders do).
     placed_anew: Vec<bool>,
-    /// The pose of each collider gathered in the last step, and in this one. (Poses are
-    /// compared, not change ticks: avian rewrites a child collider's `Position` every step.)
-    collider_poses: [EntityHashMap<Pose>; 2],
+    /// The pose and bounds of each collider gathered in the last step, and in this one.
+    /// (Compared, not change ticks: avian rewrites a child collider's `Position` every step.)
+    collider_poses: [EntityHashMap<(Pose, ColliderAabb)>; 2],
     /// Each attached particle's last pull direction, kept across steps (the effective mass).
     pull: EntityHashMap<DVec3>,
 }
@@ -426,10 +426,12 @@ fn gather_colliders(
             .unwrap_or_else(|| coupled.add_static(pose));
         let body_pose = coupled.external.bodies[index as usize].pose();
         let [last, now] = &mut coupled.collider_poses;
-        coupled
-            .placed_anew
-            .push(collider.is_added() || last.get(&entity) != Some(&pose));
-        now.insert(entity, pose);
+        let placed = (pose, *aabb);
+        let same = last.get(&entity).is_some_and(|(p, b)| {
+            *p == pose && b.min == aabb.min && b.max == aabb.max
+        });
+        coupled.placed_anew.push(collider.is_added() || !same);
+        now.insert(entity, placed);
         coupled.external.colliders.push(ExternalCollider {
             shape: AvianShape(Collider::clone(&collider)),
             body: index,
