@@ -192,7 +192,7 @@ impl<S: ContactShape> External<S> {
         };
         lump(
             &self.attachments,
-            &self.bodies,
+            &mut self.bodies,
             &mut solver.particles,
             &mut self.scratch,
             is_due,
