@@ -295,32 +295,29 @@ fn free_rope_swinging_a_box(settings: Option<IslandOverride>, knot_mass: f32) ->
         app.world_mut().entity_mut(first).insert(settings);
     }
     keep_the_default_substeps(&mut app);
-    // Velocities at the end of the step: the solver's `(x − x*)/h` (a component's
-    // `velocity(dt)` is the step's mean, behind a rope that keeps accelerating).
-    let momentum = |app: &App| {
+    // Each rope particle's mass and velocity at the end of the step: the solver's `(x − x*)/h`,
+    // `h` its island's substep (a component's `velocity(dt)` is the step's mean).
+    let rope_motion = |app: &App| -> Vec<(f64, glam::DVec3)> {
         let state = app.world().resource::<VerletState>();
         let (solver, particles) = (&state.solver, &state.solver.particles);
-        let ropes: Vec2 = (rope.particles.iter())
-            .map(|&p| state.slot(p).unwrap())
-            .map(|slot| {
-                let (i, h) = (slot as usize, solver.state_substep_of(slot).unwrap());
-                (particles.position[i] - particles.previous[i]) / particles.inverse_mass[i] / h
-            })
-            .map(|momentum| momentum.truncate().as_vec2())
-            .sum();
-        ropes + app.world().get::<LinearVelocity>(body).unwrap().0 * 1.0
-    };
-    // Energy: the rope's (its lines keep theirs) and the box's, against the start's 0.25 J.
-    let energy = |app: &App| {
-        let state = app.world().resource::<VerletState>();
-        let (solver, particles) = (&state.solver, &state.solver.particles);
-        let ropes: f64 = (rope.particles.iter())
+        (rope.particles.iter())
             .map(|&p| state.slot(p).unwrap())
             .map(|slot| {
                 let (i, h) = (slot as usize, solver.state_substep_of(slot).unwrap());
                 let v = (particles.position[i] - particles.previous[i]) / h;
-                0.5 * v.length_squared() / particles.inverse_mass[i]
+                (1.0 / particles.inverse_mass[i], v)
             })
+            .collect()
+    };
+    let momentum = |app: &App| {
+        let ropes: glam::DVec3 = rope_motion(app).iter().map(|&(m, v)| v * m).sum();
+        ropes.truncate().as_vec2() + app.world().get::<LinearVelocity>(body).unwrap().0 * 1.0
+    };
+    // Energy: the rope's (its lines keep theirs) and the box's, against the start's 0.25 J.
+    let energy = |app: &App| {
+        let ropes: f64 = rope_motion(app)
+            .iter()
+            .map(|&(m, v)| 0.5 * m * v.length_squared())
             .sum();
         let world = app.world();
         let v = world.get::<LinearVelocity>(body).unwrap().0;

@@ -223,6 +223,16 @@ mod tests {
     use super::*;
     use glam::{DMat3, DQuat};
 
+    /// [`lump`] for an island that takes every substep.
+    fn lump_every_substep(
+        attachments: &[Attachment],
+        bodies: &mut [Body],
+        particles: &mut Particles,
+        scratch: &mut AttachmentScratch,
+    ) {
+        lump(attachments, bodies, particles, scratch, |_| Some(1.0));
+    }
+
     #[test]
     fn a_pull_on_the_particle_moves_the_body_anchor_with_it() {
         let mut bodies = [Body::dynamic(
@@ -236,13 +246,7 @@ mod tests {
         let mut attachments = [Attachment::new(0, 0, DVec3::new(0.0, 1.0, 0.0))];
         let mut scratch = AttachmentScratch::default();
         bodies[0].begin_substep(0.1);
-        lump(
-            &attachments,
-            &mut bodies,
-            &mut particles,
-            &mut scratch,
-            |_| Some(1.0),
-        );
+        lump_every_substep(&attachments, &mut bodies, &mut particles, &mut scratch);
         assert_eq!(particles.position[0], DVec3::Y);
         // Lumped: 0.1 kg particle + 2 kg body along Y (the arm is along Y: no turning).
         assert!((1.0 / particles.inverse_mass[0] - 2.1).abs() < 1e-12);
@@ -266,13 +270,7 @@ mod tests {
         let mut attachments = [Attachment::new(0, 0, DVec3::ZERO)];
         let mut scratch = AttachmentScratch::default();
         bodies[0].begin_substep(0.5);
-        lump(
-            &attachments,
-            &mut bodies,
-            &mut particles,
-            &mut scratch,
-            |_| Some(1.0),
-        );
+        lump_every_substep(&attachments, &mut bodies, &mut particles, &mut scratch);
         assert_eq!(particles.inverse_mass[0], 0.0);
         assert_eq!(particles.position[0], DVec3::new(0.5, 0.0, 0.0));
         assert_eq!(particles.previous[0], DVec3::ZERO);

@@ -36,9 +36,6 @@ pub struct ColliderGrid {
     items: Vec<u32>,
     /// Colliders too large for the grid.
     large: Vec<u32>,
-    /// Per collider: the query that last returned it (dedup).
-    seen: Vec<u32>,
-    query: u32,
     /// Colliders with a larger side are tested by every particle.
     limit: f64,
     /// Axes most colliders leave unbounded (one cell wide).
@@ -109,18 +106,15 @@ impl ColliderGrid {
                 0.0
             }
         }));
-        self.fill(bounds, n);
+        self.fill(bounds);
     }
 
     /// Counting sort of the colliders into their cells.
-    fn fill(&mut self, bounds: impl Iterator<Item = (DVec3, DVec3)> + Clone, n: usize) {
+    fn fill(&mut self, bounds: impl Iterator<Item = (DVec3, DVec3)> + Clone) {
         let cells = self.dims.iter().product::<usize>();
         self.start.clear();
         self.start.resize(cells + 1, 0);
         self.large.clear();
-        self.seen.clear();
-        self.seen.resize(n, u32::MAX);
-        self.query = 0;
         for (lo, hi) in bounds.clone() {
             if let Some(range) = self
                 .cells(lo, hi)
@@ -178,9 +172,10 @@ impl ColliderGrid {
         self.active
     }
 
-    /// As [`ColliderGrid::near`], into `out` without shared scratch (so jobs on several
-    /// threads can query at once): the number written, or `None` when every collider must be
-    /// tested (no grid, a box over [`MAX_CELLS`] cells, or more colliders than `out` holds).
+    /// Writes into `out` the colliders a particle with box `(lo, hi)` may meet, each once, in
+    /// the colliders' order, and returns how many: no shared scratch, so jobs on several
+    /// threads can query at once. `None` when every collider must be tested (no grid, a box
+    /// over [`MAX_CELLS`] cells, or more colliders than `out` holds).
     pub fn near_sorted(&self, lo: DVec3, hi: DVec3, out: &mut [u32]) -> Option<usize> {
         if !self.active {
             return None;
@@ -217,35 +212,6 @@ impl ColliderGrid {
             }
         }
         Some(kept)
-    }
-
-    /// Fills `out` with the colliders a particle with box `(lo, hi)` may meet, each once, in
-    /// the colliders' order; `None` when every collider must be tested (no grid, or a box
-    /// covering more than [`MAX_CELLS`] cells).
-    pub fn near(&mut self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) -> Option<()> {
-        if !self.active {
-            return None;
-        }
-        let range = self.cells(lo, hi)?;
-        let range = if self.reaches(lo, hi) { range } else { EMPTY };
-        out.clear();
-        self.query = self.query.wrapping_add(1);
-        let query = self.query;
-        let (start, items, seen) = (&self.start, &self.items, &mut self.seen);
-        let mut take = |i: u32| {
-            if seen[i as usize] != query {
-                seen[i as usize] = query;
-                out.push(i);
-            }
-        };
-        self.large.iter().for_each(|&i| take(i));
-        each_cell(self.dims, range, |c| {
-            items[start[c] as usize..start[c + 1] as usize]
-                .iter()
-                .for_each(|&i| take(i));
-        });
-        out.sort_unstable();
-        Some(())
     }
 }
 
@@ -295,12 +261,15 @@ mod tests {
         boxes.push((DVec3::splat(-100.0), DVec3::splat(100.0))); // a ground
         let mut grid = ColliderGrid::default();
         grid.build(boxes.iter().copied());
-        let mut out = Vec::new();
+        let mut out = [0u32; 64];
         for query in [
             (DVec3::new(2.5, 2.5, 0.2), DVec3::new(4.5, 3.0, 0.4)),
             (DVec3::splat(-3.0), DVec3::splat(-2.0)),
         ] {
-            grid.near(query.0, query.1, &mut out).expect("small query");
+            let count = grid
+                .near_sorted(query.0, query.1, &mut out)
+                .expect("small query");
+            let out = &out[..count];
             let touching: Vec<u32> = (0..boxes.len() as u32)
                 .filter(|&i| {
                     let (a, b) = boxes[i as usize];

@@ -251,6 +251,8 @@ impl<S: ContactShape> External<S> {
         self.reach = (lo - self.max_radius, hi + self.max_radius);
         let margins = self.colliders.iter().map(|c| c.margin);
         self.largest_margin = margins.clone().fold(0.0, f64::max);
+        // (A query's buffer: more than it holds and the particle tests every collider.)
+        self.near.resize((4 * self.colliders.len()).max(64), 0);
         let bounds = self.placed.iter().zip(margins);
         let bounds = bounds.map(|(&(_, a, b), margin)| (a - margin, b + margin));
         self.grid.build(bounds);
@@ -287,7 +289,7 @@ impl<S: ContactShape> External<S> {
             let radius = particles.radius[slot];
             let reach = radius * 2.0 + (x - before).length() + self.largest_margin;
             let (box_lo, box_hi) = (x.min(before) - reach, x.max(before) + reach);
-            let near = self.grid.near(box_lo, box_hi, &mut self.near);
+            let near = self.grid.near_sorted(box_lo, box_hi, &mut self.near);
             let (position, previous) =
                 (&mut particles.position[slot], &mut particles.previous[slot]);
             let state = (position, previous, particles.inverse_mass[slot], radius);
@@ -298,8 +300,8 @@ impl<S: ContactShape> External<S> {
                 &mut self.impulses,
             );
             let touched = match near {
-                Some(()) => {
-                    let candidates = self.near.iter().map(|&i| i as usize);
+                Some(count) => {
+                    let candidates = self.near[..count].iter().map(|&i| i as usize);
                     collide_particle_with(particle, state, candidates, world)
                 }
                 None => collide_particle_with(particle, state, 0..self.colliders.len(), world),
