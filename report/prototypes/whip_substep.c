@@ -16,7 +16,11 @@
 //   fixed    : Newton with the directions frozen at the prediction's normals (exact Newton for
 //              fixed directions, as SHAKE's passes are), the projection where it fails;
 //   ls10     : where SHAKE fails, up to 10 more SHAKE passes with a backtracking line search on
-//              sum C^2 (does SHAKE have a root there?), then the projection.
+//              sum C^2 (does SHAKE have a root there?), then the projection;
+//   kkt1     : kkt-warm for the first pass only, then the projection's Gauss-Newton passes;
+//   kkt1-beg : kkt1 only in substeps that begin projected (not right after SHAKE failed in the
+//              same substep) and whose prediction is within 10 % (max |C|/L) — the crate's rule
+//              (src/solver/direct/curvature.rs); the crate's pass costs ~5 scalar passes.
 // Prints Newton passes (and those spent projecting), substeps by kind, the largest link strain,
 // the energy lost of what the fall released and the CPU time (the 3x3 blocks are inverted
 // naively: a KKT pass costs several scalar passes here).
@@ -278,11 +282,15 @@ static void kkt_pass(void) {
   }
   passes++;
 }
-static int kkt_warm;
+static int kkt_warm, kkt_first; // kkt_first: curvature in the first pass only
+static long kkt_passes;
 static void project_kkt(void) {
   memcpy(xt, x, sizeof xt);
   if (kkt_warm) memcpy(lam, warm, sizeof lam); else memset(lam, 0, sizeof lam);
-  for (int k = 0; k < 32 && err() > TOL; k++) { kkt_pass(); proj_passes++; }
+  for (int k = 0; k < 32 && err() > TOL; k++) {
+    if (!kkt_first || k == 0) { kkt_pass(); kkt_passes++; } else pass(0);
+    proj_passes++;
+  }
 }
 // Newton with the correction directions frozen at the prediction's normals (exact Newton for
 // fixed directions, as SHAKE's passes are): returns passes, or -1 if it did not converge.
@@ -315,7 +323,7 @@ static int project_fixed(int warmed) {
 }
 static int use_fixed;
 static int fell_back;
-static int use_kkt;
+static int use_kkt, kkt_begin_only;
 // One substep of length h; mode 0: project on failure, 1: halve on failure.
 static void substep(double h, int mode, int depth) {
   V x0[N + 1], xp0[N + 1];
@@ -341,19 +349,20 @@ static void substep(double h, int mode, int depth) {
     return;
   }
   projected++;
-  if (use_kkt) project_kkt();
+  if (use_kkt && (!kkt_begin_only || (ok == -1 && err() < 0.1))) project_kkt();
   else if (!use_fixed || !project_fixed(use_fixed == 2)) project();
   memcpy(warm, lam, sizeof warm);
   if (depth == 0) fell_back = (ok == 0);
 }
 int main(void) {
   const double h = 1.0 / 64 / 8;
-  for (int mode = 0; mode < 8; mode++) {
+  for (int mode = 0; mode < 10; mode++) {
     if (mode == 5 || mode == 7) continue; // (fixed directions warm-started; 40 line-search passes: as 4 and 6)
     ls_budget = mode == 6 ? 10 : mode == 7 ? 40 : 0; ls_rescued = ls_passes = 0;
-    use_kkt = mode == 2 || mode == 3;
-    if (mode >= 6) use_kkt = 0;
-    kkt_warm = mode == 3;
+    use_kkt = mode == 2 || mode == 3 || mode >= 8;
+    if (mode == 6 || mode == 7) use_kkt = 0;
+    kkt_warm = mode == 3 || mode >= 8;
+    kkt_first = mode >= 8; kkt_begin_only = mode == 9; kkt_passes = 0;
     use_fixed = mode == 4 ? 1 : mode == 5 ? 2 : 0; fixed_fail = 0;
     for (int i = 0; i <= N; i++) { x[i] = (V){i * L, 0}; xp[i] = x[i]; w[i] = 1; }
     w[0] = 0; w[N] = 1.0 / TIP;
@@ -369,9 +378,10 @@ int main(void) {
     double e = energy(h);
     double cpu = (double)(clock() - t0) / CLOCKS_PER_SEC;
     printf("%-8s passes %6ld, %ld of them projecting (SHAKE ok %ld, failed %ld, projected %ld, halved %ld) max strain %.1e, energy lost %.1f %% of the fall's, %.0f ms CPU\n",
-           mode == 7 ? "ls40" : mode == 6 ? "ls10" : mode == 5 ? "fix-warm" : mode == 4 ? "fixed" : mode == 3 ? "kkt-warm" : mode == 2 ? "kkt" : mode ? "halve" : "project", passes, proj_passes, shake_ok, shake_failed, projected, halved, strain,
+           mode == 9 ? "kkt1-beg" : mode == 8 ? "kkt1" : mode == 7 ? "ls40" : mode == 6 ? "ls10" : mode == 5 ? "fix-warm" : mode == 4 ? "fixed" : mode == 3 ? "kkt-warm" : mode == 2 ? "kkt" : mode ? "halve" : "project", passes, proj_passes, shake_ok, shake_failed, projected, halved, strain,
            100 * (e0 - e) / (e0 - floor), 1e3 * cpu);
     if (ls_budget) printf("   line search rescued %ld SHAKE substeps, %ld passes in them\n", ls_rescued, ls_passes);
+    if (use_kkt) printf("   passes with the curvature: %ld\n", kkt_passes);
     if (use_fixed) printf("   fixed-direction Newton failed in %ld substeps\n", fixed_fail);
   }
   return 0;

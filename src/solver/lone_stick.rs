@@ -68,7 +68,7 @@ impl LineSolve<'_, '_> {
             let violated = (start_length - rest).abs() / rest;
             // (As short as `unit_and_length` gives a fixed direction: the general solve's.)
             let degenerate = start_length.is_nan() || start_length <= 1e-12;
-            if degenerate || (self.stabilise && violated > STABILISE_ABOVE) {
+            if degenerate || (self.alone && violated > STABILISE_ABOVE) {
                 return None;
             }
             let d = self.position.get(q) - self.position.get(p);

@@ -618,7 +618,7 @@ impl Solver {
             inv_h2: 1.0 / (substep.h * substep.h),
             shake: substep.shake,
             first_round,
-            stabilise: island.line_groups.len() == 1
+            alone: island.line_groups.len() == 1
                 && set.groups[range(&island.line_groups)]
                     .first()
                     .is_some_and(|group| group.len() == 1)

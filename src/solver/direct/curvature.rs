@@ -1,0 +1,460 @@
+//! The first projection pass of a substep with the constraints' curvature (a full Newton step on
+//! the projection's KKT system), for a line that is its island's only one (a chain, a rope).
+//!
+//! # Why
+//! Where SHAKE fails (links turning fast) a line is projected: Newton along the *current*
+//! directions, from the prediction. That is Gauss–Newton — it leaves out how a stick's
+//! direction turns as its ends move, the constraints' curvature, which a heavy load's tension
+//! makes large — and on a whipping 1000:1 chain it wanders for five to ten passes before it
+//! converges. The projection is the stationary point of
+//! `L(x, λ) = ½ |x − x̃|²_M − λ·C(x)`: `R = M (x − x̃) − ∇C(x)ᵀ λ = 0`, `C(x) + α̃ λ = 0`. A full
+//! Newton step on it, from the prediction `x̃` with λ warm-started from the last substep, is
+//!
+//! ```text
+//! (M + Σ_k μ_k H_k) Δx − ∇Cᵀ Δλ = −R,   ∇C Δx + α̃ Δλ = −(C + α̃ λ),   μ_k = −λ_k / d_k
+//! ```
+//!
+//! with `H_k` stick `k`'s curvature `P_k = I − n_k n_kᵀ` on its ends' blocks (`+P` on the
+//! diagonal, `−P` between them) and `d_k` its length. This module solves that system exactly, in
+//! O(n), by eliminating the line from its free end towards its root: each particle's equation
+//! reduced by its subtree reads `E_c Δx_c − μ P Δx_p − n Δλ = g_c` (`p` its parent, `n` from `p`
+//! to `c`), so, with `G = E_c⁻¹`, `u = G n`,
+//!
+//! ```text
+//! D = n·u + α̃,   a = (n − μ P u) / D,   β = (b − n·G g_c) / D,   b = −(C + α̃ λ)
+//! Δλ = a·Δx_p + β,   Δx_c = G g_c + u β + T Δx_p,   T = μ G + u (a − μ n)ᵀ
+//! E_p += μ P − μ² P G P + D a aᵀ,   g_p += μ P (G g_c + u β) − n β
+//! ```
+//!
+//! — a 3 × 3 elimination per particle (with `μ = 0` it is the Thomas algorithm of the line
+//! solve), symmetric 3 × 3 blocks ([`Sym3`]). Later passes are the usual ones along the current
+//! directions.
+//!
+//! # When
+//! In the C prototype `report/prototypes/whip_substep.c` one such pass at the start of every
+//! projection (mode `kkt1`) takes the whipping 1000:1 chain's projections from 8.2 Newton passes
+//! per substep to 3.0 (a curvature pass in every pass: 3.1) and 15 795 passes in all to 6646. But
+//! the crate's pass costs about five ordinary ones (65 against 12 ns per particle, perf), so
+//! where it saves fewer passes it costs time: in a scratch build running it in every projected
+//! substep, the swinging 1000:1 chain took 18 % less time and the 200-link chain (equal masses)
+//! 8 % more. It runs where it pays: in a substep that *begins* projected (right after a SHAKE
+//! fallback, or with a link predicted to turn too far) — not after SHAKE failed in the same
+//! substep, which has spent its passes already — and where the prediction is within
+//! [`CURVATURE_BELOW`](super::CURVATURE_BELOW) of the constraints. Measured (release, 8 × 1, 5 s
+//! from horizontal, best of five runs; old and new builds interleaved): 1000:1 chain 14 285 →
+//! 10 189 passes, 26.7–26.9 → 23.5–23.7 ms; 200 links 6613 → 5810 passes, 31.2–31.4 → 31.3–31.4
+//! ms; largest strain below 10⁻⁹ either way.
+//!
+//! Compression (`λ > 0`) would make `E` indefinite: `μ` is clamped at zero there (Gauss–Newton
+//! for that stick). A stick out of its active set (a slack rope) has `λ = 0` and decouples its
+//! subtree. Only the root — the end eliminated last — may be immovable: a line pinned at both
+//! ends or inside keeps the usual passes (`E` would be singular below a pin).
+
+use super::sym3::Sym3;
+use super::{LineRef, LineSolve};
+use glam::DVec3;
+
+/// One stick of a line reduced by the elimination: `Δλ = a·Δx_p + β`,
+/// `Δx_c = v + μ G Δx_p + u (b·Δx_p)` with `b = a − μ n`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct CurvatureNode {
+    mu_g: Sym3,
+    u: DVec3,
+    a: DVec3,
+    b: DVec3,
+    v: DVec3,
+    beta: f64,
+}
+
+/// Which end of a line the elimination ends at.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Root {
+    First,
+    Last,
+}
+
+impl LineSolve<'_, '_> {
+    /// Where the curvature pass may run on `line`: every particle movable but possibly the
+    /// root, which is an immovable end if there is one.
+    ///
+    /// # Safety
+    /// `line` passed [`LineSolve::check`].
+    pub(super) unsafe fn curvature_root(&self, line: &LineRef) -> Option<Root> {
+        // SAFETY: in bounds (`check`, this function's contract).
+        unsafe {
+            let m = line.sticks.len();
+            if !(1..m).all(|j| self.w(line.p(j)) > 0.0) {
+                return None;
+            }
+            match (self.w(line.p(0)) > 0.0, self.w(line.p(m)) > 0.0) {
+                (true, false) => Some(Root::Last),
+                (_, true) => Some(Root::First),
+                (false, false) => None,
+            }
+        }
+    }
+
+    /// The line's particle and stick at elimination step `t` (`t = 1..=m`, leaf first): the
+    /// child particle, its parent and the stick between them.
+    ///
+    /// # Safety
+    /// `line` passed [`LineSolve::check`], `1 ≤ t ≤ m`.
+    #[inline(always)]
+    unsafe fn curvature_link(&self, line: &LineRef, root: Root, t: usize) -> (usize, usize, usize) {
+        // SAFETY: in bounds (caller).
+        unsafe {
+            let m = line.sticks.len();
+            match root {
+                Root::First => (line.p(m - t + 1), line.p(m - t), m - t),
+                Root::Last => (line.p(t - 1), line.p(t), t - 1),
+            }
+        }
+    }
+
+    /// One full Newton pass from the prediction, λ warm-started from the last substep.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`]; `root` from
+    /// [`LineSolve::curvature_root`]; nothing has moved the line this substep.
+    pub(super) unsafe fn curvature_pass(&self, line: &LineRef, root: Root) {
+        // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
+        // contract).
+        unsafe {
+            for (k, &s) in line.sticks.iter().enumerate() {
+                let warm = self.scratch.warm.get_unchecked(line.offset + k);
+                self.lambda
+                    .set_unchecked(s as usize, self.warm_of(s as usize, warm));
+            }
+            let (e_root, g_root) = self.curvature_forward(line, root);
+            self.curvature_backward(line, root, e_root, g_root);
+        }
+    }
+
+    /// Leaf to root: each stick reduced into its node; returns the root's `E` (without its mass)
+    /// and `g`.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::curvature_pass`], and `root` from [`LineSolve::curvature_root`].
+    unsafe fn curvature_forward(&self, line: &LineRef, root: Root) -> (Sym3, DVec3) {
+        // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
+        unsafe {
+            let m = line.sticks.len();
+            let (mut e_acc, mut g_acc) = (Sym3::default(), DVec3::ZERO);
+            let mut child_force = DVec3::ZERO; // λ n of the stick below (R's share from it)
+            for t in 1..=m {
+                let (c, _, k) = self.curvature_link(line, root, t);
+                let s = line.s(k);
+                let mut row = self.row(line, k);
+                if root == Root::Last {
+                    row.normal = -row.normal; // (from the parent to the child)
+                }
+                let lambda = if row.active {
+                    self.lambda.get_unchecked(s)
+                } else {
+                    self.lambda.set_unchecked(s, 0.0);
+                    0.0
+                };
+                let n = row.normal;
+                let mu = (-lambda / (row.c + self.rest(s)).max(1e-12)).max(0.0);
+                // E_c = M + μ P + E_acc, P = I − n nᵀ.
+                let e = Sym3::diagonal(1.0 / self.w(c) + mu) + Sym3::outer(n, -mu) + e_acc;
+                // R_c = M (x − x̃) − λ_k n_k + λ_{k+1} n_{k+1}, at x = x̃.
+                let g = lambda * n - child_force + g_acc;
+                // G = E⁻¹ = adj(E) / det: the two divisions below are independent (the pass is
+                // a chain of dependent operations, and a division is its slowest link).
+                let (adjugate, det) = e.adjugate();
+                let adj_n = adjugate * n;
+                let n_adj_n = n.dot(adj_n);
+                let alpha = self.compliance(s) * self.inv_h2;
+                let inverse_det = 1.0 / det;
+                // 1/D = det / (n·adj n + α̃ det), D = n·G n + α̃ (regularised).
+                let inverse_d = det / (n_adj_n * (1.0 + super::REGULARISATION) + alpha * det);
+                let inverse = adjugate * inverse_det;
+                let (u, v) = (adj_n * inverse_det, inverse * g);
+                let node = if row.active {
+                    let nu = n_adj_n * inverse_det;
+                    let q = n - (u - n * nu) * mu; // a = q / D
+                    let a = q * inverse_d;
+                    let beta = (-(row.c + alpha * lambda) - n.dot(v)) * inverse_d;
+                    let moved = v + u * beta;
+                    // μ P − μ² P G P + D a aᵀ, P G P = G − u nᵀ − n uᵀ + (n·u) n nᵀ.
+                    let mu2 = mu * mu;
+                    e_acc = Sym3::diagonal(mu)
+                        + inverse * -mu2
+                        + Sym3::symmetric_outer(u, n, mu2)
+                        + Sym3::outer(n, -mu - mu2 * nu)
+                        + Sym3::outer(q, inverse_d);
+                    g_acc = (moved - n * n.dot(moved)) * mu - n * beta;
+                    CurvatureNode {
+                        mu_g: inverse * mu,
+                        u,
+                        a,
+                        b: a - n * mu,
+                        v: moved,
+                        beta,
+                    }
+                } else {
+                    (e_acc, g_acc) = (Sym3::default(), DVec3::ZERO);
+                    CurvatureNode {
+                        v,
+                        ..Default::default()
+                    }
+                };
+                child_force = lambda * n;
+                self.scratch.curvature.set_unchecked(line.offset + k, node);
+            }
+            (e_acc, g_acc - child_force)
+        }
+    }
+
+    /// Root to leaf: `Δx` and `Δλ` substituted, particles moved and λ updated.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::curvature_forward`], which ran just before.
+    unsafe fn curvature_backward(&self, line: &LineRef, root: Root, e_root: Sym3, g_root: DVec3) {
+        // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
+        unsafe {
+            let m = line.sticks.len();
+            let root_particle = match root {
+                Root::First => line.p(0),
+                Root::Last => line.p(m),
+            };
+            let w = self.w(root_particle);
+            let mut dx = if w > 0.0 {
+                finite_or_zero((e_root + Sym3::diagonal(1.0 / w)).inverse() * g_root)
+            } else {
+                DVec3::ZERO
+            };
+            self.shift(root_particle, dx);
+            for t in (1..=m).rev() {
+                let (c, _, k) = self.curvature_link(line, root, t);
+                let node = self.scratch.curvature.get_unchecked(line.offset + k);
+                let s = line.s(k);
+                let d_lambda = node.a.dot(dx) + node.beta;
+                if d_lambda.is_finite() {
+                    self.lambda
+                        .set_unchecked(s, self.lambda.get_unchecked(s) + d_lambda);
+                }
+                // Δx_c = v + μ G Δx_p + u (a − μ n)·Δx_p  (= v + T Δx_p).
+                dx = finite_or_zero(node.v + node.mu_g * dx + node.u * node.b.dot(dx));
+                self.shift(c, dx);
+            }
+        }
+    }
+}
+
+/// `v`, or zero where it is not finite (a singular reduction must not spread NaN).
+#[inline(always)]
+fn finite_or_zero(v: DVec3) -> DVec3 {
+    if v.is_finite() { v } else { DVec3::ZERO }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{LineRef, LineScratch, LineSolve, LineViews};
+    use crate::solver::shared::SharedSlice;
+    use crate::solver::{StickKind, Sticks};
+    use glam::DVec3;
+
+    /// A bent line of five particles: inverse masses `w` (0 = immovable), tensions `lambda`.
+    struct Case {
+        x: Vec<DVec3>,
+        w: Vec<f64>,
+        lambda: Vec<f64>,
+        rest: Vec<f64>,
+        compliance: Vec<f64>,
+        kind: Vec<StickKind>,
+    }
+
+    fn case(w: [f64; 5]) -> Case {
+        let x = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(0.11, -0.02, 0.01),
+            DVec3::new(0.19, -0.09, 0.03),
+            DVec3::new(0.22, -0.2, -0.02),
+            DVec3::new(0.3, -0.27, 0.05),
+        ];
+        Case {
+            x,
+            w: w.to_vec(),
+            lambda: vec![-3.0, -2.5, 0.7, -1.0],
+            rest: vec![0.1, 0.1, 0.12, 0.1],
+            compliance: vec![0.0, 1e-4, 0.0, 0.0],
+            kind: vec![StickKind::Equal; 4],
+        }
+    }
+
+    /// Whether stick `k` is in the system (a rope link while stretched).
+    fn active(c: &Case, k: usize) -> bool {
+        let stretch = (c.x[k + 1] - c.x[k]).length() - c.rest[k];
+        c.kind[k] == StickKind::Equal || (c.kind[k] == StickKind::AtMost && stretch > 0.0)
+    }
+
+    const INV_H2: f64 = 4096.0;
+
+    /// The pass's `Δx` and `Δλ`, or `None` where it does not apply.
+    fn by_pass(c: &Case) -> Option<(Vec<DVec3>, Vec<f64>)> {
+        let mut sticks = Sticks::default();
+        for k in 0..4 {
+            let (rest, compliance) = (c.rest[k], c.compliance[k]);
+            let ends = [k as u32, k as u32 + 1];
+            sticks.push(ends, rest, compliance, c.kind[k], f64::INFINITY, 0);
+        }
+        let (mut position, mut previous) = (c.x.clone(), c.x.clone());
+        let mut lambda = vec![0.0; 4];
+        let mut scratch = LineScratch::default();
+        scratch.resize(4, 0);
+        scratch.warm.copy_from_slice(&c.lambda);
+        let solve = LineSolve {
+            position: SharedSlice::new(&mut position),
+            previous: SharedSlice::new(&mut previous),
+            mirror: None,
+            lambda: SharedSlice::new(&mut lambda),
+            inverse_mass: &c.w,
+            sticks: &sticks,
+            scratch: LineViews::new(&mut scratch),
+            inv_h2: INV_H2,
+            shake: true,
+            first_round: true,
+            alone: true,
+        };
+        let line = LineRef {
+            particles: &[0, 1, 2, 3, 4],
+            sticks: &[0, 1, 2, 3],
+            offset: 0,
+        };
+        solve.check(&line);
+        // SAFETY: this test alone holds the slices; `check` passed.
+        let root = unsafe { solve.curvature_root(&line) }?;
+        // SAFETY: as above; nothing moved the line.
+        unsafe { solve.curvature_pass(&line, root) };
+        Some({
+            let dx = position.iter().zip(&c.x).map(|(a, b)| *a - *b).collect();
+            let dl = lambda.iter().zip(&c.lambda).map(|(a, b)| a - b).collect();
+            (dx, dl)
+        })
+    }
+
+    /// The same Newton step from the dense KKT system, by Gaussian elimination.
+    fn dense(c: &Case) -> (Vec<DVec3>, Vec<f64>) {
+        let free: Vec<usize> = (0..5).filter(|&j| c.w[j] > 0.0).collect();
+        let col = |j: usize| free.iter().position(|&f| f == j).map(|i| 3 * i);
+        let (nx, size) = (3 * free.len(), 3 * free.len() + 4);
+        let mut a = vec![vec![0.0; size + 1]; size];
+        for (i, &j) in free.iter().enumerate() {
+            for d in 0..3 {
+                a[3 * i + d][3 * i + d] = 1.0 / c.w[j];
+            }
+        }
+        for k in 0..4 {
+            let row = nx + k;
+            if !active(c, k) {
+                a[row][row] = 1.0; // Δλ = 0, and λ = 0: no force, no curvature
+                continue;
+            }
+            let e = c.x[k + 1] - c.x[k];
+            let (len, n) = (e.length(), e.normalize());
+            let mu = (-c.lambda[k] / len).max(0.0);
+            let alpha = c.compliance[k] * INV_H2;
+            for (j, sign) in [(k, -1.0), (k + 1, 1.0)] {
+                let Some(cj) = col(j) else { continue };
+                for d in 0..3 {
+                    // Stationarity: −∇Cᵀ Δλ = −R = ∇Cᵀ λ (x = x̃); constraint row ∇C Δx.
+                    a[cj + d][row] -= sign * n[d];
+                    a[cj + d][size] += sign * n[d] * c.lambda[k];
+                    a[row][cj + d] += sign * n[d];
+                }
+                for (l, other) in [(k, -1.0), (k + 1, 1.0)] {
+                    let Some(cl) = col(l) else { continue };
+                    for d in 0..3 {
+                        for e2 in 0..3 {
+                            let p = f64::from(d == e2) - n[d] * n[e2];
+                            a[cj + d][cl + e2] += mu * sign * other * p;
+                        }
+                    }
+                }
+            }
+            a[row][row] += alpha;
+            a[row][size] = -(len - c.rest[k] + alpha * c.lambda[k]);
+        }
+        let solution = gauss(a);
+        let mut dx = vec![DVec3::ZERO; 5];
+        for (i, &j) in free.iter().enumerate() {
+            dx[j] = DVec3::from_slice(&solution[3 * i..3 * i + 3]);
+        }
+        (dx, solution[nx..].to_vec())
+    }
+
+    /// Solves the augmented system `a` (each row ends with its right-hand side).
+    fn gauss(mut a: Vec<Vec<f64>>) -> Vec<f64> {
+        let n = a.len();
+        for i in 0..n {
+            let pivot = (i..n).max_by(|&p, &q| a[p][i].abs().total_cmp(&a[q][i].abs()));
+            a.swap(i, pivot.unwrap());
+            let (above, below) = a.split_at_mut(i + 1);
+            let pivot_row = &above[i];
+            for row in below {
+                let f = row[i] / pivot_row[i];
+                for (value, pivot) in row[i..].iter_mut().zip(&pivot_row[i..]) {
+                    *value -= f * pivot;
+                }
+            }
+        }
+        let mut x = vec![0.0; n];
+        for i in (0..n).rev() {
+            let sum: f64 = (i + 1..n).map(|j| a[i][j] * x[j]).sum();
+            x[i] = (a[i][n] - sum) / a[i][i];
+        }
+        x
+    }
+
+    fn assert_matches_dense(c: Case) {
+        let (dx, dl) = by_pass(&c).expect("the curvature pass applies");
+        let (want_dx, want_dl) = dense(&c);
+        // (Within the regularisation of `D`, 10⁻⁹ relative, times the system's conditioning.)
+        let scale = want_dx.iter().map(|d| d.length()).fold(0.0, f64::max);
+        for (got, want) in dx.iter().zip(&want_dx) {
+            assert!(
+                (*got - *want).length() < 1e-6 * scale,
+                "Δx {got} against {want}"
+            );
+        }
+        // (A stick out of the system ends at λ = 0: its Δλ is minus its warm start.)
+        let want_dl: Vec<f64> = (0..4)
+            .map(|k| {
+                if active(&c, k) {
+                    want_dl[k]
+                } else {
+                    -c.lambda[k]
+                }
+            })
+            .collect();
+        for (got, want) in dl.iter().zip(&want_dl) {
+            assert!(
+                (got - want).abs() < 1e-6 * want.abs().max(1.0),
+                "Δλ {got} against {want}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_pass_is_the_newton_step_of_the_kkt_system() {
+        // Pinned first, a heavy tip; pinned last; free.
+        assert_matches_dense(case([0.0, 1.0, 2.0, 0.5, 0.001]));
+        assert_matches_dense(case([0.001, 1.0, 2.0, 0.5, 0.0]));
+        assert_matches_dense(case([3.0, 1.0, 2.0, 0.5, 0.001]));
+        // Rope links: the third made 0.13 long (its ends 0.1245 apart) is slack, the others
+        // stretched.
+        let mut ropes = case([0.0, 1.0, 2.0, 0.5, 0.001]);
+        ropes.kind = vec![StickKind::AtMost; 4];
+        ropes.rest[2] = 0.13;
+        assert!(!active(&ropes, 2) && active(&ropes, 0) && active(&ropes, 3));
+        assert_matches_dense(ropes);
+    }
+
+    #[test]
+    fn a_line_pinned_at_both_ends_keeps_the_usual_passes() {
+        assert!(by_pass(&case([0.0, 1.0, 2.0, 0.5, 0.0])).is_none());
+        assert!(by_pass(&case([1.0, 1.0, 0.0, 0.5, 1.0])).is_none());
+    }
+}
