@@ -34,16 +34,19 @@
 //! In the C prototype `report/prototypes/whip_substep.c` one such pass at the start of every
 //! projection (mode `kkt1`) takes the whipping 1000:1 chain's projections from 8.2 Newton passes
 //! per substep to 3.0 (a curvature pass in every pass: 3.1) and 15 795 passes in all to 6646. But
-//! the crate's pass costs about five ordinary ones (65 against 12 ns per particle, perf), so
+//! the crate's pass costs about five ordinary ones (62 against 12.6 ns per particle on a
+//! 200-link line, a scratch benchmark; the elimination is bound by its ~600 instructions per
+//! particle, not by its chain of dependent operations), so
 //! where it saves fewer passes it costs time: in a scratch build running it in every projected
 //! substep, the swinging 1000:1 chain took 18 % less time and the 200-link chain (equal masses)
 //! 8 % more. It runs where it pays: in a substep that *begins* projected (right after a SHAKE
 //! fallback, or with a link predicted to turn too far) — not after SHAKE failed in the same
 //! substep, which has spent its passes already — and where the prediction is within
-//! [`CURVATURE_BELOW`](super::CURVATURE_BELOW) of the constraints. Measured (release, 8 × 1, 5 s
-//! from horizontal, best of five runs; old and new builds interleaved): 1000:1 chain 14 285 →
-//! 10 189 passes, 26.7–26.9 → 23.5–23.7 ms; 200 links 6613 → 5810 passes, 31.2–31.4 → 31.3–31.4
-//! ms; largest strain below 10⁻⁹ either way.
+//! [`CURVATURE_BELOW`](super::CURVATURE_BELOW) of the constraints. Measured (release, 8 × 1,
+//! 5 s from horizontal; old and new builds interleaved, three runs of the best of five): 1000:1
+//! chain 14 285 → 10 331 Newton passes, 26.8–26.9 → 23.6–23.7 ms; 200 links 6613 → 5471 passes,
+//! 31.4–32.3 → 30.2 ms (one run of each new figure was disturbed: 25.5 and 42.6 ms); valgrind
+//! callgrind, whole runs: −16.2 % and −7.2 % instructions. Largest strain below 10⁻⁹ either way.
 //!
 //! Compression (`λ > 0`) would make `E` indefinite: `μ` is clamped at zero there (Gauss–Newton
 //! for that stick). A stick out of its active set (a slack rope) has `λ = 0` and decouples its
@@ -58,7 +61,8 @@ use glam::DVec3;
 /// `Δx_c = v + μ G Δx_p + u (b·Δx_p)` with `b = a − μ n`.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct CurvatureNode {
-    mu_g: Sym3,
+    g: Sym3,
+    mu: f64,
     u: DVec3,
     a: DVec3,
     b: DVec3,
@@ -177,16 +181,18 @@ impl LineSolve<'_, '_> {
                     let a = q * inverse_d;
                     let beta = (-(row.c + alpha * lambda) - n.dot(v)) * inverse_d;
                     let moved = v + u * beta;
-                    // μ P − μ² P G P + D a aᵀ, P G P = G − u nᵀ − n uᵀ + (n·u) n nᵀ.
+                    // μ P − μ² P G P + D a aᵀ, with P G P = G − (y nᵀ + n yᵀ), y = u − (n·u)/2 n,
+                    // and μ P = μ I − (μ/2)(n nᵀ + n nᵀ): μ I − μ² G + (z nᵀ + n zᵀ) + q qᵀ / D.
                     let mu2 = mu * mu;
+                    let z = u * mu2 - n * (0.5 * (mu2 * nu + mu));
                     e_acc = Sym3::diagonal(mu)
                         + inverse * -mu2
-                        + Sym3::symmetric_outer(u, n, mu2)
-                        + Sym3::outer(n, -mu - mu2 * nu)
+                        + Sym3::symmetric_outer(z, n)
                         + Sym3::outer(q, inverse_d);
                     g_acc = (moved - n * n.dot(moved)) * mu - n * beta;
                     CurvatureNode {
-                        mu_g: inverse * mu,
+                        g: inverse,
+                        mu,
                         u,
                         a,
                         b: a - n * mu,
@@ -236,7 +242,7 @@ impl LineSolve<'_, '_> {
                         .set_unchecked(s, self.lambda.get_unchecked(s) + d_lambda);
                 }
                 // Δx_c = v + μ G Δx_p + u (a − μ n)·Δx_p  (= v + T Δx_p).
-                dx = finite_or_zero(node.v + node.mu_g * dx + node.u * node.b.dot(dx));
+                dx = finite_or_zero(node.v + node.g * dx * node.mu + node.u * node.b.dot(dx));
                 self.shift(c, dx);
             }
         }

@@ -41,17 +41,16 @@ impl Sym3 {
         }
     }
 
-    /// `s (a bᵀ + b aᵀ)`.
+    /// `a bᵀ + b aᵀ`.
     #[inline(always)]
-    pub(crate) fn symmetric_outer(a: DVec3, b: DVec3, s: f64) -> Self {
-        let (sa, sb) = (a * s, b * s);
+    pub(crate) fn symmetric_outer(a: DVec3, b: DVec3) -> Self {
         Self {
-            xx: 2.0 * sa.x * b.x,
-            xy: sa.x * b.y + sb.x * a.y,
-            xz: sa.x * b.z + sb.x * a.z,
-            yy: 2.0 * sa.y * b.y,
-            yz: sa.y * b.z + sb.y * a.z,
-            zz: 2.0 * sa.z * b.z,
+            xx: 2.0 * a.x * b.x,
+            xy: a.x * b.y + b.x * a.y,
+            xz: a.x * b.z + b.x * a.z,
+            yy: 2.0 * a.y * b.y,
+            yz: a.y * b.z + b.y * a.z,
+            zz: 2.0 * a.z * b.z,
         }
     }
 
@@ -140,7 +139,7 @@ mod tests {
     #[test]
     fn products_and_inverse_match_glam() {
         let (a, b) = (DVec3::new(0.3, -1.2, 0.7), DVec3::new(2.0, 0.1, -0.4));
-        let s = Sym3::diagonal(2.5) + Sym3::outer(a, 0.8) + Sym3::symmetric_outer(a, b, 0.3);
+        let s = Sym3::diagonal(2.5) + Sym3::outer(a, 0.8) + Sym3::symmetric_outer(a * 0.3, b);
         let want = DMat3::from_diagonal(DVec3::splat(2.5))
             + DMat3::from_cols(a * a.x, a * a.y, a * a.z) * 0.8
             + (DMat3::from_cols(a * b.x, a * b.y, a * b.z)
