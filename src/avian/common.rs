@@ -496,13 +496,15 @@ fn proxy(
 fn island_bounds(state: &VerletState, (step, h): (f64, f64), out: &mut Vec<(DVec3, DVec3)>) {
     out.clear();
     let solver = &state.solver;
-    let bounds = |range: std::ops::Range<usize>| {
+    // (`x − x*` is the velocity times the substep the particle's island's state refers to.)
+    let substeps_of = |slot: usize| step / solver.state_substep_of(slot as u32).unwrap_or(h);
+    let bounds = |range: std::ops::Range<usize>, one_island: bool| {
         let particles = &solver.particles;
-        // (`x − x*` is the velocity times the substep the island's state refers to.)
-        let first = range.start as u32;
-        let substeps = step / solver.state_substep_of(first).unwrap_or(h);
+        let island_substeps = substeps_of(range.start);
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for i in range {
+            // (Stale islands may each keep their own substep until they are rebuilt.)
+            let substeps = if one_island { island_substeps } else { substeps_of(i) };
             let x = particles.position[i];
             let reach = particles.radius[i] + (x - particles.previous[i]).length() * substeps;
             lo = lo.min(x - reach);
@@ -513,10 +515,10 @@ fn island_bounds(state: &VerletState, (step, h): (f64, f64), out: &mut Vec<(DVec
     if solver.is_organized() {
         let islands = &solver.islands.list;
         out.extend(islands.iter().map(|island| {
-            bounds(island.particles.start as usize..island.particles.end as usize)
+            bounds(island.particles.start as usize..island.particles.end as usize, true)
         }));
     } else {
-        out.push(bounds(0..solver.particles.len()));
+        out.push(bounds(0..solver.particles.len(), false));
     }
 }
 
@@ -716,5 +718,48 @@ fn after_relax(mut coupled: ResMut<Coupled>, mut state: ResMut<VerletState>) {
 fn after_constrain(mut coupled: ResMut<Coupled>, mut state: ResMut<VerletState>) {
     if let Some(substep) = current_substep(&state) {
         coupled.external.after_constrain(&mut state.solver, &substep);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{MARGIN, island_bounds};
+    use crate::solver::{IslandSettings, StepConfig};
+    use crate::state::VerletState;
+    use glam::DVec3;
+
+    /// Stale islands (a stick added since the last organize) each keep their own substep: the one
+    /// box for all reaches as far as each particle moves by its own island's substep.
+    #[test]
+    fn stale_islands_reach_by_their_own_substeps() {
+        let mut state = VerletState::default();
+        let solver = &mut state.solver;
+        let slow = solver.add_particle(DVec3::ZERO, 1.0);
+        let fast = solver.add_particle(DVec3::new(5.0, 0.0, 0.0), 1.0);
+        let fine = IslandSettings {
+            substeps: 32,
+            iterations: 1,
+        };
+        solver.island_settings.push((fast, fine));
+        solver.organize();
+        let config = StepConfig {
+            gravity: DVec3::ZERO,
+            ..StepConfig::default()
+        };
+        solver.step(&config);
+        // 20 m/s along x for the fast particle, in its island's substep (1/64/32 s).
+        let h_fast = solver.state_substep_of(fast).unwrap();
+        assert!(h_fast < solver.state_substep_of(slow).unwrap());
+        let at = solver.particles.position[fast as usize];
+        solver.particles.previous[fast as usize] = at - DVec3::X * 20.0 * h_fast;
+        let other = solver.add_particle(DVec3::new(0.0, 1.0, 0.0), 1.0);
+        solver.sticks.push([slow, other], 1.0, 0.0, crate::solver::StickKind::Equal, f64::INFINITY, 0);
+        assert!(!solver.is_organized());
+        let (step, h) = (config.timestep, config.timestep / 8.0);
+        let mut out = Vec::new();
+        island_bounds(&state, (step, h), &mut out);
+        let reach = out[0].1.x - MARGIN - at.x;
+        // A step at 20 m/s: 0.3125 m (the old code took the first particle's substep: 0.078 m).
+        assert!((reach - 20.0 * step).abs() < 1e-9, "reach {reach}");
     }
 }
