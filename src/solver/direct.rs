@@ -87,11 +87,9 @@ use super::Sticks;
 use super::shared::SharedSlice;
 use super::sticks::{coincident_direction, relax_stick_range};
 use super::{StickKind, lines::Line};
-pub(crate) use curvature::CurvatureNode;
 use curvature::Root;
 
 mod curvature;
-mod sym3;
 use glam::DVec3;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -183,19 +181,24 @@ pub(crate) struct LineScratch {
     pub mode: Vec<LineMode>,
     /// Per tree node (see [`tree`](super::tree)).
     pub trees: Vec<super::tree::Node>,
+    /// Per tree node, for a curvature pass (see [`tree`](super::tree)).
+    pub tree_curvature: Vec<super::tree::TreeCurvature>,
     /// The elimination of a curvature pass (see [`curvature`]).
-    pub curvature: Vec<CurvatureNode>,
+    pub curvature: Vec<super::kkt::Reduced>,
 }
 
 impl LineScratch {
     pub(crate) fn resize(&mut self, n: usize, tree_nodes: usize) {
         self.trees.clear();
         self.trees.resize(tree_nodes, super::tree::Node::default());
+        self.tree_curvature.clear();
+        self.tree_curvature
+            .resize(tree_nodes, super::tree::TreeCurvature::default());
         self.start.resize(n, DVec3::ZERO);
         self.direction.resize(n, DVec3::ZERO);
         self.upper.resize(n, 0.0);
         self.rhs.resize(n, 0.0);
-        self.curvature.resize(n, CurvatureNode::default());
+        self.curvature.resize(n, super::kkt::Reduced::default());
         self.warm.clear();
         self.warm.resize(n, 0.0);
         // (Cleared: a line rebuilt at the offset of one that fell back must not inherit it.)
@@ -214,7 +217,8 @@ pub(crate) struct LineViews<'a> {
     pub warm: SharedSlice<'a, f64>,
     pub mode: SharedSlice<'a, LineMode>,
     pub trees: SharedSlice<'a, super::tree::Node>,
-    pub curvature: SharedSlice<'a, CurvatureNode>,
+    pub tree_curvature: SharedSlice<'a, super::tree::TreeCurvature>,
+    pub curvature: SharedSlice<'a, super::kkt::Reduced>,
 }
 
 impl<'a> LineViews<'a> {
@@ -227,6 +231,7 @@ impl<'a> LineViews<'a> {
             warm: SharedSlice::new(&mut scratch.warm),
             mode: SharedSlice::new(&mut scratch.mode),
             trees: SharedSlice::new(&mut scratch.trees),
+            tree_curvature: SharedSlice::new(&mut scratch.tree_curvature),
             curvature: SharedSlice::new(&mut scratch.curvature),
         }
     }

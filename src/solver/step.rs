@@ -604,8 +604,15 @@ impl Solver {
             let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
             // SAFETY: the tree's nodes, particles and sticks are the island's (the layout
             // matches the topology), which this task holds (caller).
-            return unsafe { solve.solve(&set.trees, tree, views.lines.trees.slice_mut(nodes)) }
-                as u64;
+            return unsafe {
+                let curvature = views.lines.tree_curvature.slice_mut(nodes.clone());
+                solve.solve(
+                    &set.trees,
+                    tree,
+                    views.lines.trees.slice_mut(nodes),
+                    curvature,
+                )
+            } as u64;
         }
         let solve = LineSolve {
             position: views.position,

@@ -30,7 +30,10 @@
 //! a chain it is the Thomas algorithm of the line solve.
 //!
 //! Start violations of rigid sticks above 0.1 % (an edit, a spawn) are corrected on the start
-//! positions first, as the line solve does, so they do not become velocity.
+//! positions first, as the line solve does, so they do not become velocity. A projected
+//! substep starts with one full Newton pass that includes the constraints' curvature
+//! ([`curvature`]): a Y rope with 1000× heavier tips swinging takes 7112 passes in 5 s instead
+//! of 28 707.
 //!
 //! A particle made immovable in place below the root (a pin added without a rebuild; the Bevy
 //! layer rebuilds then) would make the system singular: such a tree is swept for the substep.
@@ -64,8 +67,8 @@
 //! ```
 
 use super::direct::{
-    LineMode, MAX_PASSES, SHAKE_CONTRACTION, SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE,
-    TOLERANCE, converges_next,
+    CURVATURE_BELOW, LineMode, MAX_PASSES, SHAKE_CONTRACTION, SHAKE_MIN_COSINE, SHAKE_PASSES,
+    STABILISE_ABOVE, TOLERANCE, converges_next,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -73,6 +76,9 @@ use super::sticks::{coincident_direction, relax_stick_range};
 use super::{Particles, StickKind, Sticks};
 use glam::{DMat3, DVec3};
 use std::ops::Range;
+
+mod curvature;
+pub(crate) use curvature::TreeCurvature;
 
 /// Relative regularisation of `D_k` (as the line solve's diagonal).
 const REGULARISATION: f64 = 1e-9;
@@ -308,7 +314,13 @@ impl TreeSolve<'_, '_> {
     /// # Safety
     /// No other task accesses the tree's particles or its sticks' multipliers while this runs,
     /// and its node arrays hold valid particle and stick indices (as [`build`] makes them).
-    pub(crate) unsafe fn solve(&self, set: &TreeSet, tree: &Tree, s: &mut [Node]) -> u32 {
+    pub(crate) unsafe fn solve(
+        &self,
+        set: &TreeSet,
+        tree: &Tree,
+        s: &mut [Node],
+        curvature: &mut [TreeCurvature],
+    ) -> u32 {
         let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
         assert_eq!(s.len(), nodes.len(), "one scratch node per tree node");
         let view = TreeView {
@@ -338,24 +350,55 @@ impl TreeSolve<'_, '_> {
                 self.sweep(&view, s);
                 return 0;
             }
-            let shaking = s[0].mode == LineMode::Shake;
-            let (budget, contraction) = if shaking {
-                (SHAKE_PASSES, SHAKE_CONTRACTION)
+            // (A projection starts with a curvature pass where one applies, see `curvature`.)
+            let curving = self.first_round
+                && self.shake
+                && self.mirror.is_none()
+                && predicted < CURVATURE_BELOW
+                && curvature.len() == s.len();
+            let passes = if s[0].mode == LineMode::Shake {
+                let (passes, converged) =
+                    self.newton(&view, s, SHAKE_PASSES, SHAKE_CONTRACTION, predicted);
+                if converged {
+                    passes
+                } else {
+                    self.take_back(&view, s);
+                    s[0].mode = LineMode::FellBack;
+                    let curvature = curving.then_some(curvature);
+                    passes + self.project(&view, s, curvature, f64::INFINITY)
+                }
             } else {
-                (MAX_PASSES, f64::INFINITY)
+                self.project(&view, s, curving.then_some(curvature), predicted)
             };
-            let (mut passes, converged) = self.newton(&view, s, budget, contraction, predicted);
-            if shaking && !converged {
-                self.take_back(&view, s);
-                s[0].mode = LineMode::FellBack;
-                passes += self
-                    .newton(&view, s, MAX_PASSES, f64::INFINITY, f64::INFINITY)
-                    .0;
-            }
             for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
                 node.warm = self.lambda.get(k as usize);
             }
             passes
+        }
+    }
+
+    /// The projection's Newton passes from the prediction (nothing has moved the tree this
+    /// substep), the first with the constraints' curvature where `curvature` is given. Returns
+    /// the passes taken.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`], and `view` passed [`TreeSolve::check`].
+    unsafe fn project(
+        &self,
+        view: &TreeView,
+        s: &mut [Node],
+        curvature: Option<&mut [TreeCurvature]>,
+        predicted: f64,
+    ) -> u32 {
+        // SAFETY: as for `solve` (caller).
+        unsafe {
+            let Some(curvature) = curvature else {
+                return self.newton(view, s, MAX_PASSES, f64::INFINITY, predicted).0;
+            };
+            self.curvature_pass(view, s, curvature);
+            1 + self
+                .newton(view, s, MAX_PASSES - 1, f64::INFINITY, f64::INFINITY)
+                .0
         }
     }
 
@@ -394,6 +437,17 @@ impl TreeSolve<'_, '_> {
             view.particle.iter().all(|&p| (p as usize) < particles) && nodes_ok,
             "a tree's nodes are out of bounds"
         );
+    }
+
+    /// Stick `k`'s warm start from its last multiplier `last`: a one-sided stick's only in the
+    /// direction it can act.
+    fn warm_of(&self, k: usize, last: f64) -> f64 {
+        match self.sticks.kind[k] {
+            StickKind::Equal => last,
+            StickKind::AtMost => last.min(0.0),
+            StickKind::AtLeast => last.max(0.0),
+            StickKind::Torn => 0.0,
+        }
     }
 
     /// `true` when a particle other than the root is immovable.
@@ -463,12 +517,10 @@ impl TreeSolve<'_, '_> {
             };
             for (node, &k) in s.iter().zip(view.stick).skip(1) {
                 let k = k as usize;
-                let warm = match self.sticks.kind[k] {
-                    _ if !shake => 0.0,
-                    StickKind::Equal => node.warm,
-                    StickKind::AtMost => node.warm.min(0.0),
-                    StickKind::AtLeast => node.warm.max(0.0),
-                    StickKind::Torn => 0.0,
+                let warm = if shake {
+                    self.warm_of(k, node.warm)
+                } else {
+                    0.0
                 };
                 self.lambda.set(k, warm);
                 self.move_ends(k, node.start * warm);

@@ -6,29 +6,10 @@
 //! directions, from the prediction. That is Gauss–Newton — it leaves out how a stick's
 //! direction turns as its ends move, the constraints' curvature, which a heavy load's tension
 //! makes large — and on a whipping 1000:1 chain it wanders for five to ten passes before it
-//! converges. The projection is the stationary point of
-//! `L(x, λ) = ½ |x − x̃|²_M − λ·C(x)`: `R = M (x − x̃) − ∇C(x)ᵀ λ = 0`, `C(x) + α̃ λ = 0`. A full
-//! Newton step on it, from the prediction `x̃` with λ warm-started from the last substep, is
-//!
-//! ```text
-//! (M + Σ_k μ_k H_k) Δx − ∇Cᵀ Δλ = −R,   ∇C Δx + α̃ Δλ = −(C + α̃ λ),   μ_k = −λ_k / d_k
-//! ```
-//!
-//! with `H_k` stick `k`'s curvature `P_k = I − n_k n_kᵀ` on its ends' blocks (`+P` on the
-//! diagonal, `−P` between them) and `d_k` its length. This module solves that system exactly, in
-//! O(n), by eliminating the line from its free end towards its root: each particle's equation
-//! reduced by its subtree reads `E_c Δx_c − μ P Δx_p − n Δλ = g_c` (`p` its parent, `n` from `p`
-//! to `c`), so, with `G = E_c⁻¹`, `u = G n`,
-//!
-//! ```text
-//! D = n·u + α̃,   a = (n − μ P u) / D,   β = (b − n·G g_c) / D,   b = −(C + α̃ λ)
-//! Δλ = a·Δx_p + β,   Δx_c = G g_c + u β + T Δx_p,   T = μ G + u (a − μ n)ᵀ
-//! E_p += μ P − μ² P G P + D a aᵀ,   g_p += μ P (G g_c + u β) − n β
-//! ```
-//!
-//! — a 3 × 3 elimination per particle (with `μ = 0` it is the Thomas algorithm of the line
-//! solve), symmetric 3 × 3 blocks ([`Sym3`]). Later passes are the usual ones along the current
-//! directions.
+//! converges. One full Newton step on the projection's KKT system — the curvature included,
+//! eliminated from the line's free end towards its root, see [`kkt`] — from the prediction, with
+//! λ warm-started from the last substep, does what Gauss–Newton takes many passes for; later
+//! passes are the usual ones along the current directions.
 //!
 //! # When
 //! In the C prototype `report/prototypes/whip_substep.c` one such pass at the start of every
@@ -53,22 +34,8 @@
 //! subtree. Only the root — the end eliminated last — may be immovable: a line pinned at both
 //! ends or inside keeps the usual passes (`E` would be singular below a pin).
 
-use super::sym3::Sym3;
+use super::super::kkt::{self, Link, Subtree};
 use super::{LineRef, LineSolve};
-use glam::DVec3;
-
-/// One stick of a line reduced by the elimination: `Δλ = a·Δx_p + β`,
-/// `Δx_c = v + μ G Δx_p + u (b·Δx_p)` with `b = a − μ n`.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct CurvatureNode {
-    g: Sym3,
-    mu: f64,
-    u: DVec3,
-    a: DVec3,
-    b: DVec3,
-    v: DVec3,
-    beta: f64,
-}
 
 /// Which end of a line the elimination ends at.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -129,87 +96,52 @@ impl LineSolve<'_, '_> {
                 self.lambda
                     .set_unchecked(s as usize, self.warm_of(s as usize, warm));
             }
-            let (e_root, g_root) = self.curvature_forward(line, root);
-            self.curvature_backward(line, root, e_root, g_root);
+            let below = self.curvature_forward(line, root);
+            self.curvature_backward(line, root, below);
         }
     }
 
-    /// Leaf to root: each stick reduced into its node; returns the root's `E` (without its mass)
-    /// and `g`.
+    /// Leaf to root: each stick reduced (see [`kkt`]); returns what the sticks contribute to
+    /// the root.
     ///
     /// # Safety
     /// As for [`LineSolve::curvature_pass`], and `root` from [`LineSolve::curvature_root`].
-    unsafe fn curvature_forward(&self, line: &LineRef, root: Root) -> (Sym3, DVec3) {
+    unsafe fn curvature_forward(&self, line: &LineRef, root: Root) -> Subtree {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
-            let m = line.sticks.len();
-            let (mut e_acc, mut g_acc) = (Sym3::default(), DVec3::ZERO);
-            let mut child_force = DVec3::ZERO; // λ n of the stick below (R's share from it)
-            for t in 1..=m {
+            let mut below = Subtree::default();
+            for t in 1..=line.sticks.len() {
                 let (c, _, k) = self.curvature_link(line, root, t);
                 let s = line.s(k);
-                let mut row = self.row(line, k);
-                if root == Root::Last {
-                    row.normal = -row.normal; // (from the parent to the child)
-                }
-                let lambda = if row.active {
-                    self.lambda.get_unchecked(s)
-                } else {
+                let row = self.row(line, k);
+                if !row.active {
                     self.lambda.set_unchecked(s, 0.0);
-                    0.0
+                }
+                let link = Link {
+                    // (From the parent to the child.)
+                    normal: if root == Root::Last {
+                        -row.normal
+                    } else {
+                        row.normal
+                    },
+                    c: row.c,
+                    length: row.c + self.rest(s),
+                    lambda: if row.active {
+                        self.lambda.get_unchecked(s)
+                    } else {
+                        0.0
+                    },
+                    alpha: self.compliance(s) * self.inv_h2,
+                    inverse_mass: self.w(c),
+                    active: row.active,
                 };
-                let n = row.normal;
-                let mu = (-lambda / (row.c + self.rest(s)).max(1e-12)).max(0.0);
-                // E_c = M + μ P + E_acc, P = I − n nᵀ.
-                let e = Sym3::diagonal(1.0 / self.w(c) + mu) + Sym3::outer(n, -mu) + e_acc;
-                // R_c = M (x − x̃) − λ_k n_k + λ_{k+1} n_{k+1}, at x = x̃.
-                let g = lambda * n - child_force + g_acc;
-                // G = E⁻¹ = adj(E) / det: the two divisions below are independent (the pass is
-                // a chain of dependent operations, and a division is its slowest link).
-                let (adjugate, det) = e.adjugate();
-                let adj_n = adjugate * n;
-                let n_adj_n = n.dot(adj_n);
-                let alpha = self.compliance(s) * self.inv_h2;
-                let inverse_det = 1.0 / det;
-                // 1/D = det / (n·adj n + α̃ det), D = n·G n + α̃ (regularised).
-                let inverse_d = det / (n_adj_n * (1.0 + super::REGULARISATION) + alpha * det);
-                let inverse = adjugate * inverse_det;
-                let (u, v) = (adj_n * inverse_det, inverse * g);
-                let node = if row.active {
-                    let nu = n_adj_n * inverse_det;
-                    let q = n - (u - n * nu) * mu; // a = q / D
-                    let a = q * inverse_d;
-                    let beta = (-(row.c + alpha * lambda) - n.dot(v)) * inverse_d;
-                    let moved = v + u * beta;
-                    // μ P − μ² P G P + D a aᵀ, with P G P = G − (y nᵀ + n yᵀ), y = u − (n·u)/2 n,
-                    // and μ P = μ I − (μ/2)(n nᵀ + n nᵀ): μ I − μ² G + (z nᵀ + n zᵀ) + q qᵀ / D.
-                    let mu2 = mu * mu;
-                    let z = u * mu2 - n * (0.5 * (mu2 * nu + mu));
-                    e_acc = Sym3::diagonal(mu)
-                        + inverse * -mu2
-                        + Sym3::symmetric_outer(z, n)
-                        + Sym3::outer(q, inverse_d);
-                    g_acc = (moved - n * n.dot(moved)) * mu - n * beta;
-                    CurvatureNode {
-                        g: inverse,
-                        mu,
-                        u,
-                        a,
-                        b: a - n * mu,
-                        v: moved,
-                        beta,
-                    }
-                } else {
-                    (e_acc, g_acc) = (Sym3::default(), DVec3::ZERO);
-                    CurvatureNode {
-                        v,
-                        ..Default::default()
-                    }
-                };
-                child_force = lambda * n;
-                self.scratch.curvature.set_unchecked(line.offset + k, node);
+                let reduced;
+                (reduced, below) = kkt::reduce(&link, &below);
+                self.scratch
+                    .curvature
+                    .set_unchecked(line.offset + k, reduced);
             }
-            (e_acc, g_acc - child_force)
+            below
         }
     }
 
@@ -217,7 +149,7 @@ impl LineSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`LineSolve::curvature_forward`], which ran just before.
-    unsafe fn curvature_backward(&self, line: &LineRef, root: Root, e_root: Sym3, g_root: DVec3) {
+    unsafe fn curvature_backward(&self, line: &LineRef, root: Root, below: Subtree) {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
             let m = line.sticks.len();
@@ -225,39 +157,29 @@ impl LineSolve<'_, '_> {
                 Root::First => line.p(0),
                 Root::Last => line.p(m),
             };
-            let w = self.w(root_particle);
-            let mut dx = if w > 0.0 {
-                finite_or_zero((e_root + Sym3::diagonal(1.0 / w)).inverse() * g_root)
-            } else {
-                DVec3::ZERO
-            };
+            let mut dx = kkt::root_step(self.w(root_particle), &below);
             self.shift(root_particle, dx);
             for t in (1..=m).rev() {
                 let (c, _, k) = self.curvature_link(line, root, t);
-                let node = self.scratch.curvature.get_unchecked(line.offset + k);
                 let s = line.s(k);
-                let d_lambda = node.a.dot(dx) + node.beta;
-                if d_lambda.is_finite() {
-                    self.lambda
-                        .set_unchecked(s, self.lambda.get_unchecked(s) + d_lambda);
-                }
-                // Δx_c = v + μ G Δx_p + u (a − μ n)·Δx_p  (= v + T Δx_p).
-                dx = finite_or_zero(node.v + node.g * dx * node.mu + node.u * node.b.dot(dx));
+                let d_lambda;
+                (d_lambda, dx) = self
+                    .scratch
+                    .curvature
+                    .get_unchecked(line.offset + k)
+                    .substitute(dx);
+                self.lambda
+                    .set_unchecked(s, self.lambda.get_unchecked(s) + d_lambda);
                 self.shift(c, dx);
             }
         }
     }
 }
 
-/// `v`, or zero where it is not finite (a singular reduction must not spread NaN).
-#[inline(always)]
-fn finite_or_zero(v: DVec3) -> DVec3 {
-    if v.is_finite() { v } else { DVec3::ZERO }
-}
-
 #[cfg(test)]
 mod tests {
     use super::super::{LineRef, LineScratch, LineSolve, LineViews};
+    use crate::solver::kkt;
     use crate::solver::shared::SharedSlice;
     use crate::solver::{StickKind, Sticks};
     use glam::DVec3;
@@ -341,77 +263,20 @@ mod tests {
         })
     }
 
-    /// The same Newton step from the dense KKT system, by Gaussian elimination.
+    /// The same Newton step from the dense KKT system.
     fn dense(c: &Case) -> (Vec<DVec3>, Vec<f64>) {
-        let free: Vec<usize> = (0..5).filter(|&j| c.w[j] > 0.0).collect();
-        let col = |j: usize| free.iter().position(|&f| f == j).map(|i| 3 * i);
-        let (nx, size) = (3 * free.len(), 3 * free.len() + 4);
-        let mut a = vec![vec![0.0; size + 1]; size];
-        for (i, &j) in free.iter().enumerate() {
-            for d in 0..3 {
-                a[3 * i + d][3 * i + d] = 1.0 / c.w[j];
-            }
-        }
-        for k in 0..4 {
-            let row = nx + k;
-            if !active(c, k) {
-                a[row][row] = 1.0; // Δλ = 0, and λ = 0: no force, no curvature
-                continue;
-            }
-            let e = c.x[k + 1] - c.x[k];
-            let (len, n) = (e.length(), e.normalize());
-            let mu = (-c.lambda[k] / len).max(0.0);
-            let alpha = c.compliance[k] * INV_H2;
-            for (j, sign) in [(k, -1.0), (k + 1, 1.0)] {
-                let Some(cj) = col(j) else { continue };
-                for d in 0..3 {
-                    // Stationarity: −∇Cᵀ Δλ = −R = ∇Cᵀ λ (x = x̃); constraint row ∇C Δx.
-                    a[cj + d][row] -= sign * n[d];
-                    a[cj + d][size] += sign * n[d] * c.lambda[k];
-                    a[row][cj + d] += sign * n[d];
-                }
-                for (l, other) in [(k, -1.0), (k + 1, 1.0)] {
-                    let Some(cl) = col(l) else { continue };
-                    for d in 0..3 {
-                        for e2 in 0..3 {
-                            let p = f64::from(d == e2) - n[d] * n[e2];
-                            a[cj + d][cl + e2] += mu * sign * other * p;
-                        }
-                    }
-                }
-            }
-            a[row][row] += alpha;
-            a[row][size] = -(len - c.rest[k] + alpha * c.lambda[k]);
-        }
-        let solution = gauss(a);
-        let mut dx = vec![DVec3::ZERO; 5];
-        for (i, &j) in free.iter().enumerate() {
-            dx[j] = DVec3::from_slice(&solution[3 * i..3 * i + 3]);
-        }
-        (dx, solution[nx..].to_vec())
-    }
-
-    /// Solves the augmented system `a` (each row ends with its right-hand side).
-    fn gauss(mut a: Vec<Vec<f64>>) -> Vec<f64> {
-        let n = a.len();
-        for i in 0..n {
-            let pivot = (i..n).max_by(|&p, &q| a[p][i].abs().total_cmp(&a[q][i].abs()));
-            a.swap(i, pivot.unwrap());
-            let (above, below) = a.split_at_mut(i + 1);
-            let pivot_row = &above[i];
-            for row in below {
-                let f = row[i] / pivot_row[i];
-                for (value, pivot) in row[i..].iter_mut().zip(&pivot_row[i..]) {
-                    *value -= f * pivot;
-                }
-            }
-        }
-        let mut x = vec![0.0; n];
-        for i in (0..n).rev() {
-            let sum: f64 = (i + 1..n).map(|j| a[i][j] * x[j]).sum();
-            x[i] = (a[i][n] - sum) / a[i][i];
-        }
-        x
+        let ends: Vec<[usize; 2]> = (0..4).map(|k| [k, k + 1]).collect();
+        let active: Vec<bool> = (0..4).map(|k| active(c, k)).collect();
+        kkt::dense::newton_step(&kkt::dense::System {
+            x: &c.x,
+            inverse_mass: &c.w,
+            ends: &ends,
+            lambda: &c.lambda,
+            rest: &c.rest,
+            compliance: &c.compliance,
+            active: &active,
+            inv_h2: INV_H2,
+        })
     }
 
     fn assert_matches_dense(c: Case) {

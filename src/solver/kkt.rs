@@ -1,0 +1,294 @@
+//! One Newton step on the projection's KKT system *with the constraints' curvature*, eliminated
+//! stick by stick from the leaves of a line or tree towards its root.
+//!
+//! # The system
+//! A substep's projection is the stationary point of `L(x, λ) = ½ |x − x̃|²_M − λ·C(x)`:
+//! `R = M (x − x̃) − ∇C(x)ᵀ λ = 0` and `C(x) + α̃ λ = 0`. The line and tree solves take Newton
+//! steps along the current directions (Gauss–Newton: `∇C` frozen, its change as the ends move
+//! left out). The full step, from the prediction `x̃` with λ warm-started, is
+//!
+//! ```text
+//! (M + Σ_k μ_k H_k) Δx − ∇Cᵀ Δλ = −R,   ∇C Δx + α̃ Δλ = −(C + α̃ λ),   μ_k = −λ_k / d_k
+//! ```
+//!
+//! with `H_k` stick `k`'s curvature `P_k = I − n_k n_kᵀ` on its ends' blocks (`+P` on the
+//! diagonal, `−P` between them) and `d_k` its length. A rope's tension makes `μ` large: that
+//! is what a heavy load swinging on a chain turns on, and what Gauss–Newton misses.
+//!
+//! # The elimination
+//! Root the line or tree; every other particle `c` has a parent `p` and a parent stick (`n`
+//! from `p` to `c`). Leaves first, a particle's equation reduced by the sticks below it reads
+//! `E_c Δx_c − μ P Δx_p − n Δλ = g_c`, where the sticks below contribute a [`Subtree`]
+//! (`E`, `g`, and their forces `Σ λ n` on `c`). With `G = E_c⁻¹`, `u = G n`:
+//!
+//! ```text
+//! D = n·u + α̃,   a = (n − μ P u) / D,   β = (b − n·G g_c) / D,   b = −(C + α̃ λ)
+//! Δλ = a·Δx_p + β,   Δx_c = G g_c + u β + (μ G + u (a − μ n)ᵀ) Δx_p
+//! into p:  E += μ P − μ² P G P + D a aᵀ,   g += μ P (G g_c + u β) − n β,   Σλn += λ n
+//! ```
+//!
+//! One symmetric 3 × 3 inverse per particle ([`Sym3`]); with `μ = 0` it is the Gauss–Newton
+//! elimination of the line and tree solves. Verified against the dense KKT system in
+//! `direct`'s tests. Compression (`λ > 0`) would make `E` indefinite: `μ` is clamped at zero
+//! there (Gauss–Newton for that stick). A stick out of its active set (a slack rope) has
+//! `λ = 0` and decouples its subtree. Every particle but the root must be movable (`E` would
+//! be singular below a pin).
+//!
+//! ```
+//! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
+//! use glam::DVec3;
+//! // A 1000:1 chain released from horizontal: its projections start with a curvature pass.
+//! let mut solver = Solver::default();
+//! solver.method = Method::Lines;
+//! let pin = solver.add_particle(DVec3::ZERO, 0.0);
+//! solver.pin(pin, DVec3::ZERO);
+//! for i in 1..=20 {
+//!     let w = if i == 20 { 0.001 } else { 1.0 };
+//!     solver.add_particle(DVec3::new(0.05 * i as f64, 0.0, 0.0), w);
+//!     solver.sticks.push([i - 1, i], 0.05, 0.0, StickKind::Equal, f64::INFINITY, 0);
+//! }
+//! solver.organize();
+//! for _ in 0..64 {
+//!     solver.step(&StepConfig::default());
+//! }
+//! assert!(solver.sticks.max_violation(&solver.particles) < 1e-8);
+//! ```
+
+use super::sym3::Sym3;
+use glam::DVec3;
+
+/// Relative regularisation of `D` (as the line and tree solves').
+const REGULARISATION: f64 = 1e-9;
+
+/// What the sticks below a particle contribute to its equation.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Subtree {
+    /// Their share of `E`.
+    pub e: Sym3,
+    /// Their share of `g`.
+    pub g: DVec3,
+    /// `Σ λ n` of the sticks to the particle's children (their forces in `R`).
+    pub force: DVec3,
+}
+
+impl Subtree {
+    /// Both contributions.
+    #[inline(always)]
+    pub(crate) fn add(&mut self, other: &Subtree) {
+        self.e = self.e + other.e;
+        self.g += other.g;
+        self.force += other.force;
+    }
+}
+
+/// One stick as the elimination reads it: from its parent end to its child end.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Link {
+    /// Unit direction from the parent to the child.
+    pub normal: DVec3,
+    /// `C = length − rest`.
+    pub c: f64,
+    /// The stick's length.
+    pub length: f64,
+    /// `λ` (zero unless the stick is in the system).
+    pub lambda: f64,
+    /// `α̃ = α / h²`.
+    pub alpha: f64,
+    /// The child's inverse mass (positive).
+    pub inverse_mass: f64,
+    /// In the system (a rope link while stretched, …).
+    pub active: bool,
+}
+
+/// One stick reduced: `Δλ = a·Δx_p + β`, `Δx_c = v + μ G Δx_p + u (b·Δx_p)`, `b = a − μ n`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Reduced {
+    g: Sym3,
+    mu: f64,
+    u: DVec3,
+    a: DVec3,
+    b: DVec3,
+    v: DVec3,
+    beta: f64,
+}
+
+impl Reduced {
+    /// `(Δλ, Δx_c)` once the parent's `Δx_p` is known (non-finite parts as zero: a singular
+    /// reduction must not spread NaN).
+    #[inline(always)]
+    pub(crate) fn substitute(&self, parent_dx: DVec3) -> (f64, DVec3) {
+        let d_lambda = self.a.dot(parent_dx) + self.beta;
+        let dx = self.v + self.g * parent_dx * self.mu + self.u * self.b.dot(parent_dx);
+        (
+            if d_lambda.is_finite() { d_lambda } else { 0.0 },
+            finite_or_zero(dx),
+        )
+    }
+}
+
+/// Reduces `link` with what the sticks below its child contribute (`below`): the stick's
+/// substitution, and what it contributes to its parent.
+#[inline(always)]
+pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
+    let (n, lambda) = (link.normal, link.lambda);
+    let mu = (-lambda / link.length.max(1e-12)).max(0.0);
+    // E_c = M + μ P + E_below, P = I − n nᵀ;  g_c = −R_c = λ n − Σ λ_child n_child + g_below.
+    let e = Sym3::diagonal(1.0 / link.inverse_mass + mu) + Sym3::outer(n, -mu) + below.e;
+    let g = lambda * n - below.force + below.g;
+    // G = adj(E) / det: the two divisions below are independent of each other.
+    let (adjugate, det) = e.adjugate();
+    let adj_n = adjugate * n;
+    let n_adj_n = n.dot(adj_n);
+    let inverse_det = 1.0 / det;
+    // 1/D = det / (n·adj n + α̃ det), D = n·G n + α̃ (regularised).
+    let inverse_d = det / (n_adj_n * (1.0 + REGULARISATION) + link.alpha * det);
+    let inverse = adjugate * inverse_det;
+    let (u, v) = (adj_n * inverse_det, inverse * g);
+    if !link.active {
+        let reduced = Reduced {
+            v,
+            ..Default::default()
+        };
+        return (reduced, Subtree::default());
+    }
+    let nu = n_adj_n * inverse_det;
+    let q = n - (u - n * nu) * mu; // a = q / D
+    let a = q * inverse_d;
+    let beta = (-(link.c + link.alpha * lambda) - n.dot(v)) * inverse_d;
+    let moved = v + u * beta;
+    // μ P − μ² P G P + D a aᵀ, with P G P = G − (y nᵀ + n yᵀ), y = u − (n·u)/2 n, and
+    // μ P = μ I − (μ/2)(n nᵀ + n nᵀ): μ I − μ² G + (z nᵀ + n zᵀ) + q qᵀ / D.
+    let mu2 = mu * mu;
+    let z = u * mu2 - n * (0.5 * (mu2 * nu + mu));
+    let up = Subtree {
+        e: Sym3::diagonal(mu)
+            + inverse * -mu2
+            + Sym3::symmetric_outer(z, n)
+            + Sym3::outer(q, inverse_d),
+        g: (moved - n * n.dot(moved)) * mu - n * beta,
+        force: n * lambda,
+    };
+    let reduced = Reduced {
+        g: inverse,
+        mu,
+        u,
+        a,
+        b: a - n * mu,
+        v: moved,
+        beta,
+    };
+    (reduced, up)
+}
+
+/// The root's `Δx` from the sticks below it: zero when it is immovable (`inverse_mass ≤ 0`).
+#[inline(always)]
+pub(crate) fn root_step(inverse_mass: f64, below: &Subtree) -> DVec3 {
+    if inverse_mass <= 0.0 {
+        return DVec3::ZERO;
+    }
+    let e = below.e + Sym3::diagonal(1.0 / inverse_mass);
+    finite_or_zero(e.inverse() * (below.g - below.force))
+}
+
+/// `v`, or zero where it is not finite.
+#[inline(always)]
+fn finite_or_zero(v: DVec3) -> DVec3 {
+    if v.is_finite() { v } else { DVec3::ZERO }
+}
+
+/// The Newton step of the dense KKT system, by Gaussian elimination: what the tests compare the
+/// elimination with.
+#[cfg(test)]
+pub(crate) mod dense {
+    use glam::DVec3;
+
+    /// Particles, sticks (`[a, b]`, `n` from `a` to `b`) and multipliers at the prediction.
+    pub(crate) struct System<'a> {
+        pub x: &'a [DVec3],
+        pub inverse_mass: &'a [f64],
+        pub ends: &'a [[usize; 2]],
+        pub lambda: &'a [f64],
+        pub rest: &'a [f64],
+        pub compliance: &'a [f64],
+        pub active: &'a [bool],
+        pub inv_h2: f64,
+    }
+
+    /// `(Δx, Δλ)` of the full Newton step from `x = x̃` (immovable particles: `Δx = 0`; a stick
+    /// out of the system: `Δλ = 0` and no force or curvature).
+    pub(crate) fn newton_step(s: &System) -> (Vec<DVec3>, Vec<f64>) {
+        let particles = s.x.len();
+        let free: Vec<usize> = (0..particles)
+            .filter(|&j| s.inverse_mass[j] > 0.0)
+            .collect();
+        let col = |j: usize| free.iter().position(|&f| f == j).map(|i| 3 * i);
+        let nx = 3 * free.len();
+        let size = nx + s.ends.len();
+        let mut a = vec![vec![0.0; size + 1]; size];
+        for (i, &j) in free.iter().enumerate() {
+            for d in 0..3 {
+                a[3 * i + d][3 * i + d] = 1.0 / s.inverse_mass[j];
+            }
+        }
+        for (k, &[first, second]) in s.ends.iter().enumerate() {
+            let row = nx + k;
+            if !s.active[k] {
+                a[row][row] = 1.0;
+                continue;
+            }
+            let e = s.x[second] - s.x[first];
+            let (length, n) = (e.length(), e.normalize());
+            let mu = (-s.lambda[k] / length).max(0.0);
+            let alpha = s.compliance[k] * s.inv_h2;
+            for (j, sign) in [(first, -1.0), (second, 1.0)] {
+                let Some(cj) = col(j) else { continue };
+                for d in 0..3 {
+                    // Stationarity: −∇Cᵀ Δλ = −R = ∇Cᵀ λ (x = x̃); the constraint row ∇C Δx.
+                    a[cj + d][row] -= sign * n[d];
+                    a[cj + d][size] += sign * n[d] * s.lambda[k];
+                    a[row][cj + d] += sign * n[d];
+                }
+                for (l, other) in [(first, -1.0), (second, 1.0)] {
+                    let Some(cl) = col(l) else { continue };
+                    for d in 0..3 {
+                        for e2 in 0..3 {
+                            let p = f64::from(d == e2) - n[d] * n[e2];
+                            a[cj + d][cl + e2] += mu * sign * other * p;
+                        }
+                    }
+                }
+            }
+            a[row][row] += alpha;
+            a[row][size] = -(length - s.rest[k] + alpha * s.lambda[k]);
+        }
+        let solution = gauss(a);
+        let mut dx = vec![DVec3::ZERO; particles];
+        for (i, &j) in free.iter().enumerate() {
+            dx[j] = DVec3::from_slice(&solution[3 * i..3 * i + 3]);
+        }
+        (dx, solution[nx..].to_vec())
+    }
+
+    /// Solves the augmented system `a` (each row ends with its right-hand side).
+    fn gauss(mut a: Vec<Vec<f64>>) -> Vec<f64> {
+        let n = a.len();
+        for i in 0..n {
+            let pivot = (i..n).max_by(|&p, &q| a[p][i].abs().total_cmp(&a[q][i].abs()));
+            a.swap(i, pivot.unwrap());
+            let (above, below) = a.split_at_mut(i + 1);
+            let pivot_row = &above[i];
+            for row in below {
+                let f = row[i] / pivot_row[i];
+                for (value, pivot) in row[i..].iter_mut().zip(&pivot_row[i..]) {
+                    *value -= f * pivot;
+                }
+            }
+        }
+        let mut x = vec![0.0; n];
+        for i in (0..n).rev() {
+            let sum: f64 = (i + 1..n).map(|j| a[i][j] * x[j]).sum();
+            x[i] = (a[i][n] - sum) / a[i][i];
+        }
+        x
+    }
+}

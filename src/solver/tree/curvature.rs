@@ -1,0 +1,222 @@
+//! The first projection pass of a tree's substep with the constraints' curvature (a full Newton
+//! step on the projection's KKT system, see [`kkt`]), eliminated from the leaves to the root.
+//!
+//! # Why
+//! A tree whose branches swing with heavy tips — a Y-shaped rope holding lanterns — projects
+//! many of its substeps (a free end whips round too fast for SHAKE), and there its Gauss–Newton
+//! passes wander as a chain's do (see [`direct`](super::super::direct)'s `curvature`): the
+//! tension of the heavy tips turns the links. A tree's pass is already a 3 × 3 elimination per
+//! particle, so a curvature pass costs about one ordinary pass, and it runs in every projected
+//! substep (after a SHAKE failure too) whose prediction is within
+//! [`CURVATURE_BELOW`](super::super::direct::CURVATURE_BELOW) of the constraints. Measured on
+//! `tests/direct.rs`'s Y rope (a 50-link trunk, three 30-link branches) released from
+//! horizontal, 5 s at 8 × 1 (release; old and new builds interleaved, best of five per run):
+//! Newton passes with equal masses 6446 → 5926, with 100× heavier tips 10 839 → 7001, with
+//! 1000× tips 28 707 → 7112; time 54.2–56.1 → 52.4–52.9 ms, 84.9–86.9 → 61.7–62.5 ms and
+//! 198.9–211.7 → 64.9–66.1 ms (the sweep: 7.8–7.9 ms; quiet runs — the machine is shared). Only
+//! in substeps that begin projected, as lines do: 5900, 8329 and 16 938 passes.
+
+use super::super::kkt::{self, Link, Reduced, Subtree};
+use super::{Node, TreeSolve, TreeView};
+use glam::DVec3;
+
+/// A tree node's share of a curvature pass.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct TreeCurvature {
+    /// What the sticks below the node contribute.
+    below: Subtree,
+    /// The node's parent stick, reduced.
+    reduced: Reduced,
+    /// The node's `Δx`.
+    dx: DVec3,
+}
+
+impl TreeSolve<'_, '_> {
+    /// One full Newton pass from the prediction, λ warm-started from the last substep (`s`'s
+    /// warm starts): leaves to root, then back.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`]; `view` passed [`TreeSolve::check`], no particle but the
+    /// root is immovable, nothing has moved the tree this substep, and `c` is as long as `s`.
+    pub(super) unsafe fn curvature_pass(
+        &self,
+        view: &TreeView,
+        s: &[Node],
+        c: &mut [TreeCurvature],
+    ) {
+        for node in c.iter_mut() {
+            node.below = Subtree::default();
+        }
+        for t in (1..view.particle.len()).rev() {
+            // SAFETY: `t` and its parent (< t) are nodes of the view, every index passed
+            // `check`, the particles and multipliers are this task's (caller).
+            unsafe {
+                let row = self.row(view, t);
+                let k = row.stick;
+                let lambda = if row.active {
+                    self.warm_of(k, s.get_unchecked(t).warm)
+                } else {
+                    0.0
+                };
+                self.lambda.set_unchecked(k, lambda);
+                let child = *view.particle.get_unchecked(t) as usize;
+                let link = Link {
+                    normal: row.normal * row.sign, // (from the parent to the child)
+                    c: row.c,
+                    length: row.c + *self.sticks.rest_length.get_unchecked(k),
+                    lambda,
+                    alpha: *self.sticks.compliance.get_unchecked(k) * self.inv_h2,
+                    inverse_mass: *self.inverse_mass.get_unchecked(child),
+                    active: row.active,
+                };
+                let (reduced, up) = kkt::reduce(&link, &c.get_unchecked(t).below);
+                c.get_unchecked_mut(t).reduced = reduced;
+                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
+                c.get_unchecked_mut(parent).below.add(&up);
+            }
+        }
+        let root = view.particle[0] as usize;
+        c[0].dx = kkt::root_step(self.inverse_mass[root], &c[0].below);
+        // SAFETY: as above.
+        unsafe { self.shift(root, c[0].dx) };
+        for t in 1..view.particle.len() {
+            // SAFETY: as above.
+            unsafe {
+                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
+                let parent_dx = c.get_unchecked(parent).dx;
+                let (d_lambda, dx) = c.get_unchecked(t).reduced.substitute(parent_dx);
+                c.get_unchecked_mut(t).dx = dx;
+                let k = *view.stick.get_unchecked(t) as usize;
+                self.lambda
+                    .set_unchecked(k, self.lambda.get_unchecked(k) + d_lambda);
+                self.shift(*view.particle.get_unchecked(t) as usize, dx);
+            }
+        }
+    }
+
+    /// Moves particle `p` by `by` unless it is immovable.
+    ///
+    /// # Safety
+    /// `p` is a particle of a tree that passed [`TreeSolve::check`], held by this task.
+    unsafe fn shift(&self, p: usize, by: DVec3) {
+        // SAFETY: in bounds and this task's (caller).
+        unsafe {
+            if *self.inverse_mass.get_unchecked(p) > 0.0 {
+                self.position
+                    .set_unchecked(p, self.position.get_unchecked(p) + by);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Node, TreeSolve, TreeView};
+    use super::TreeCurvature;
+    use crate::solver::shared::SharedSlice;
+    use crate::solver::{Solver, StickKind, kkt};
+    use glam::DVec3;
+
+    /// A pinned trunk of two links forking into three branches of two, bent, with stretched
+    /// and compressed links and unequal masses: the pass's `Δx` and `Δλ` against the dense KKT
+    /// system's Newton step.
+    #[test]
+    fn the_pass_is_the_newton_step_of_the_kkt_system_at_forks() {
+        let mut solver = Solver::default();
+        let pin = solver.add_particle(DVec3::ZERO, 0.0);
+        solver.pin(pin, DVec3::ZERO);
+        let mut link = |from: u32, to: DVec3, w: f64, rest: f64| {
+            let p = solver.add_particle(to, w);
+            solver
+                .sticks
+                .push([from, p], rest, 0.0, StickKind::Equal, f64::INFINITY, 0);
+            p
+        };
+        let a = link(pin, DVec3::new(0.02, -0.11, 0.0), 1.0, 0.1);
+        let fork = link(a, DVec3::new(0.05, -0.2, 0.01), 2.0, 0.1);
+        for (i, side) in [-1.0, 0.0, 1.0].into_iter().enumerate() {
+            let w = [0.5, 0.001, 3.0][i];
+            let b = link(
+                fork,
+                DVec3::new(0.05 + 0.07 * side, -0.29, 0.02 * side),
+                1.0,
+                0.1,
+            );
+            link(b, DVec3::new(0.06 + 0.15 * side, -0.37, -0.01), w, 0.12);
+        }
+        solver.organize();
+        let set = solver.islands.lines().trees.clone();
+        let nodes = set.trees[0].nodes.start as usize..set.trees[0].nodes.end as usize;
+        let view = TreeView {
+            particle: &set.particle[nodes.clone()],
+            stick: &set.stick[nodes.clone()],
+            parent: &set.parent[nodes.clone()],
+            offset: set.trees[0].nodes.start,
+        };
+        let sticks = solver.sticks.len();
+        let warm: Vec<f64> = (0..sticks).map(|k| -0.5 - 0.3 * k as f64).collect();
+        let mut s = vec![Node::default(); view.particle.len()];
+        for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
+            node.warm = warm[k as usize];
+        }
+        let mut c = vec![TreeCurvature::default(); s.len()];
+        let x = solver.particles.position.clone();
+        let (mut position, mut previous) = (x.clone(), x.clone());
+        let mut lambda = vec![0.0; sticks];
+        let inv_h2 = 4096.0;
+        {
+            let (position, previous) = (
+                SharedSlice::new(&mut position),
+                SharedSlice::new(&mut previous),
+            );
+            let lambda = SharedSlice::new(&mut lambda);
+            let solve = TreeSolve {
+                position: &position,
+                previous: &previous,
+                mirror: None,
+                lambda: &lambda,
+                inverse_mass: &solver.particles.inverse_mass,
+                sticks: &solver.sticks,
+                inv_h2,
+                shake: true,
+                first_round: true,
+            };
+            solve.check(&view);
+            // SAFETY: this test alone holds the slices; `check` passed; only the root is pinned.
+            unsafe { solve.curvature_pass(&view, &s, &mut c) };
+        }
+        let ends: Vec<[usize; 2]> = solver
+            .sticks
+            .ends()
+            .iter()
+            .map(|e| e.map(|p| p as usize))
+            .collect();
+        let (want_dx, want_dl) = kkt::dense::newton_step(&kkt::dense::System {
+            x: &x,
+            inverse_mass: &solver.particles.inverse_mass,
+            ends: &ends,
+            lambda: &warm,
+            rest: &solver.sticks.rest_length,
+            compliance: &solver.sticks.compliance,
+            active: &vec![true; sticks],
+            inv_h2,
+        });
+        // (Within the regularisation of `D`, 10⁻⁹ relative, times the system's conditioning.)
+        let scale = want_dx.iter().map(|d| d.length()).fold(0.0, f64::max);
+        for j in 0..x.len() {
+            let got = position[j] - x[j];
+            assert!(
+                (got - want_dx[j]).length() < 1e-6 * scale,
+                "Δx {got} against {}",
+                want_dx[j]
+            );
+        }
+        for k in 0..sticks {
+            let (got, want) = (lambda[k] - warm[k], want_dl[k]);
+            assert!(
+                (got - want).abs() < 1e-6 * want.abs().max(1.0),
+                "Δλ {got} against {want}"
+            );
+        }
+    }
+}
