@@ -32,7 +32,10 @@
 //! current directions for that substep instead. A line alone in its island (a chain, a rope)
 //! starts a substep that begins projected with one full Newton pass that includes the
 //! constraints' curvature ([`curvature`]): the projection then converges in a few passes where
-//! it used to wander (a whipping 1000:1 chain: 28 % fewer passes in all, 12 % less time).
+//! it used to wander (a whipping 1000:1 chain: 28 % fewer passes in all, 12 % less time). Where
+//! the projection has still not converged after [`FULL_NEWTON_AFTER`] passes, full Newton
+//! passes (the curvature in every pass, the residual measured against the kept prediction) take
+//! over: Gauss–Newton alone does not converge on loads 10⁵–10⁶ times a link's mass.
 //!
 //! Each substep starts from the last substep's multipliers (a warm start along the start
 //! directions: constraint forces change little between substeps; taken back if it makes the
@@ -125,6 +128,24 @@ pub const CURVATURE_BELOW: f64 = 0.1;
 /// Relative regularisation of the diagonal (keeps a taut straight chain between pins regular).
 const REGULARISATION: f64 = 1e-9;
 
+/// Where a projection starts from (see [`LineSolve::project`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Start {
+    /// The warm start applied along the start directions.
+    Warmed,
+    /// At the prediction, the warm start left out for a curvature pass.
+    WarmLeftOut,
+    /// At the prediction after SHAKE failed this substep, λ = 0.
+    Restarted,
+}
+
+/// Gauss–Newton passes a projection takes before full Newton passes (with the constraints'
+/// curvature, see [`curvature`]) take over, where they can. Gauss–Newton does not converge at
+/// all on a chain holding a load 10⁵ times a link's mass released from horizontal: it leaves
+/// the links 40–90× their length; full Newton takes 3 passes per projected substep there (the
+/// C prototype, `report/prototypes/whip_substep.c`, mode `kkt-warm` at `-DTIP=100000.0`).
+pub const FULL_NEWTON_AFTER: u32 = 16;
+
 /// How a line is solved in one substep (decided at its start).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) enum LineMode {
@@ -185,10 +206,14 @@ pub(crate) struct LineScratch {
     pub tree_curvature: Vec<super::tree::TreeCurvature>,
     /// The elimination of a curvature pass (see [`curvature`]).
     pub curvature: Vec<super::kkt::Reduced>,
+    /// Per line *particle* (indexed like [`LineSet::particles`](super::LineSet::particles)):
+    /// where the substep's prediction put it, for full Newton passes (lines alone in their
+    /// island only).
+    pub predicted: Vec<DVec3>,
 }
 
 impl LineScratch {
-    pub(crate) fn resize(&mut self, n: usize, tree_nodes: usize) {
+    pub(crate) fn resize(&mut self, n: usize, particles: usize, tree_nodes: usize) {
         self.trees.clear();
         self.trees.resize(tree_nodes, super::tree::Node::default());
         self.tree_curvature.clear();
@@ -199,6 +224,7 @@ impl LineScratch {
         self.upper.resize(n, 0.0);
         self.rhs.resize(n, 0.0);
         self.curvature.resize(n, super::kkt::Reduced::default());
+        self.predicted.resize(particles, DVec3::ZERO);
         self.warm.clear();
         self.warm.resize(n, 0.0);
         // (Cleared: a line rebuilt at the offset of one that fell back must not inherit it.)
@@ -219,6 +245,7 @@ pub(crate) struct LineViews<'a> {
     pub trees: SharedSlice<'a, super::tree::Node>,
     pub tree_curvature: SharedSlice<'a, super::tree::TreeCurvature>,
     pub curvature: SharedSlice<'a, super::kkt::Reduced>,
+    pub predicted: SharedSlice<'a, DVec3>,
 }
 
 impl<'a> LineViews<'a> {
@@ -233,6 +260,7 @@ impl<'a> LineViews<'a> {
             trees: SharedSlice::new(&mut scratch.trees),
             tree_curvature: SharedSlice::new(&mut scratch.tree_curvature),
             curvature: SharedSlice::new(&mut scratch.curvature),
+            predicted: SharedSlice::new(&mut scratch.predicted),
         }
     }
 }
@@ -266,6 +294,8 @@ pub(crate) struct LineRef<'a> {
     pub particles: &'a [u32],
     pub sticks: &'a [u32],
     pub offset: usize,
+    /// Where its particles start in [`LineSet::particles`](super::LineSet::particles).
+    pub particle_offset: usize,
 }
 
 impl<'a> LineRef<'a> {
@@ -276,6 +306,7 @@ impl<'a> LineRef<'a> {
             particles: &set.particles[r(&line.particles)],
             sticks: &set.sticks[r(&line.sticks)],
             offset: line.sticks.start as usize,
+            particle_offset: line.particles.start as usize,
         }
     }
 }
@@ -329,7 +360,10 @@ impl LineSolve<'_, '_> {
         unsafe {
             // A line alone in its island starts a substep that begins projected (not SHAKE) with
             // the constraints' curvature (see [`curvature`]).
-            let curvable = self.first_round && self.shake && self.alone && self.mirror.is_none();
+            // (Full Newton passes rescue a line alone in its island where Gauss–Newton does not
+            // converge; see [`LineSolve::project`].)
+            let rescuable = self.first_round && self.alone && self.mirror.is_none();
+            let curvable = rescuable && self.shake;
             let (predicted, root) = if self.first_round {
                 self.start(line, curvable)
             } else {
@@ -340,16 +374,19 @@ impl LineSolve<'_, '_> {
                     self.sweep(line);
                     return 0;
                 }
-                LineMode::Shake => self.shake_or_project(line, predicted),
+                LineMode::Shake => self.shake_or_project(line, predicted, rescuable),
                 _ => {
                     // (A root found already means the warm start was left out for it.)
-                    let warmed = root.is_none();
+                    let start = if root.is_some() {
+                        Start::WarmLeftOut
+                    } else {
+                        Start::Warmed
+                    };
                     let root = match root {
-                        None if curvable => self.curvature_root(line),
+                        None if rescuable => self.curvature_root(line),
                         root => root,
                     };
-                    let curving = root.filter(|_| predicted < CURVATURE_BELOW);
-                    self.project(line, predicted, curving, warmed)
+                    self.project(line, predicted, root, start)
                 }
             };
             for (k, &s) in line.sticks.iter().enumerate() {
@@ -398,7 +435,7 @@ impl LineSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`LineSolve::start`], which began this substep in [`LineMode::Shake`].
-    unsafe fn shake_or_project(&self, line: &LineRef, predicted: f64) -> u32 {
+    unsafe fn shake_or_project(&self, line: &LineRef, predicted: f64, rescuable: bool) -> u32 {
         // SAFETY: as for `start` (this function's contract).
         unsafe {
             let (passes, converged) =
@@ -407,14 +444,16 @@ impl LineSolve<'_, '_> {
                 return passes;
             }
             self.restart_without_shake(line);
-            passes + self.project(line, f64::INFINITY, None, true)
+            let root = rescuable.then(|| self.curvature_root(line)).flatten();
+            passes + self.project(line, predicted, root, Start::Restarted)
         }
     }
 
-    /// The projection's Newton passes, the first one with the constraints' curvature where
-    /// `curving` (see [`curvature`]). `warmed`: the warm start was applied along the start
-    /// directions at the start of the substep (else nothing has moved the line yet). Returns the
-    /// passes taken.
+    /// The projection's Newton passes. Where `root` is given (the line is alone in its island
+    /// and has a root for the curvature elimination, see [`curvature`]) and the prediction is
+    /// within [`CURVATURE_BELOW`]: the first pass takes the constraints' curvature where the
+    /// substep began projected (not `Restarted`), and where Gauss–Newton has not converged after
+    /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over. Returns the passes taken.
     ///
     /// # Safety
     /// As for [`LineSolve::start`].
@@ -422,28 +461,44 @@ impl LineSolve<'_, '_> {
         &self,
         line: &LineRef,
         predicted: f64,
-        curving: Option<Root>,
-        warmed: bool,
+        root: Option<Root>,
+        start: Start,
     ) -> u32 {
         // SAFETY: as for `start` (this function's contract).
         unsafe {
-            let Some(root) = curving else {
-                if !warmed {
-                    // (Left out for a curvature pass that does not apply after all.)
-                    self.begin(line, false, true);
+            // (Both only where the prediction is within `CURVATURE_BELOW`: their linearisation is
+            // poor under violent motion.)
+            let root = root.filter(|_| predicted < CURVATURE_BELOW);
+            let curving = root.filter(|_| self.shake && start != Start::Restarted);
+            let mut passes = 0;
+            let mut predicted = predicted;
+            match curving {
+                Some(root) => {
+                    if start == Start::Warmed {
+                        self.take_back(line);
+                    }
+                    self.curvature_pass(line, root);
+                    (passes, predicted) = (1, f64::INFINITY);
                 }
-                return self
-                    .newton(line, MAX_PASSES, f64::INFINITY, predicted, false)
-                    .0;
-            };
-            if warmed {
-                self.take_back(line);
+                // (Left out for a curvature pass that does not apply after all.)
+                None if start == Start::WarmLeftOut => _ = self.begin(line, false, true),
+                None => {}
             }
-            self.curvature_pass(line, root);
-            // (The next pass measures the error on its way: one pass seldom converges.)
-            1 + self
-                .newton(line, MAX_PASSES - 1, f64::INFINITY, f64::INFINITY, true)
-                .0
+            // (After a curvature pass the next pass measures the error on its way: one pass
+            // seldom converges.)
+            let fused = curving.is_some();
+            let budget = if root.is_some() {
+                FULL_NEWTON_AFTER
+            } else {
+                MAX_PASSES
+            };
+            let (taken, converged) =
+                self.newton(line, budget - passes, f64::INFINITY, predicted, fused);
+            passes += taken;
+            if let (false, Some(root)) = (converged, root) {
+                passes += self.full_newton(line, root, MAX_PASSES - passes).0;
+            }
+            passes
         }
     }
 
@@ -488,7 +543,7 @@ impl LineSolve<'_, '_> {
         .into_iter()
         .fold(v.warm.len().min(v.mode.len()), usize::min);
         assert!(
-            line.offset + m <= scratch,
+            line.offset + m <= scratch && line.particle_offset + m < v.predicted.len(),
             "a line's scratch is out of bounds"
         );
     }
@@ -680,6 +735,10 @@ impl LineSolve<'_, '_> {
                     } else {
                         f64::INFINITY
                     };
+                }
+                if self.alone {
+                    // (The prediction, for full Newton passes: see `curvature`.)
+                    v.predicted.set_unchecked(line.particle_offset + j, x);
                 }
                 if w > 0.0 {
                     self.position.set_unchecked(p, x + (before - after) * w);

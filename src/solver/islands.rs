@@ -828,6 +828,7 @@ impl Solver {
         }
         self.line_scratch.resize(
             islands.lines.sticks.len(),
+            islands.lines.particles.len(),
             islands.lines.trees.particle.len(),
         );
         islands.hierarchies.refresh(&self.particles, &self.sticks);

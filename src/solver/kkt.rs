@@ -96,6 +96,8 @@ pub(crate) struct Link {
     pub alpha: f64,
     /// The child's inverse mass (positive).
     pub inverse_mass: f64,
+    /// `M (x − x̃)` at the child: zero at the prediction.
+    pub offset: DVec3,
     /// In the system (a rope link while stretched, …).
     pub active: bool,
 }
@@ -132,9 +134,10 @@ impl Reduced {
 pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
     let (n, lambda) = (link.normal, link.lambda);
     let mu = (-lambda / link.length.max(1e-12)).max(0.0);
-    // E_c = M + μ P + E_below, P = I − n nᵀ;  g_c = −R_c = λ n − Σ λ_child n_child + g_below.
+    // E_c = M + μ P + E_below, P = I − n nᵀ;
+    // g_c = −R_c = −M (x − x̃) + λ n − Σ λ_child n_child + g_below.
     let e = Sym3::diagonal(1.0 / link.inverse_mass + mu) + Sym3::outer(n, -mu) + below.e;
-    let g = lambda * n - below.force + below.g;
+    let g = lambda * n - below.force + below.g - link.offset;
     // G = adj(E) / det: the two divisions below are independent of each other.
     let (adjugate, det) = e.adjugate();
     let adj_n = adjugate * n;
@@ -180,14 +183,15 @@ pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
     (reduced, up)
 }
 
-/// The root's `Δx` from the sticks below it: zero when it is immovable (`inverse_mass ≤ 0`).
+/// The root's `Δx` from the sticks below it (`offset`: its `M (x − x̃)`): zero when it is
+/// immovable (`inverse_mass ≤ 0`).
 #[inline(always)]
-pub(crate) fn root_step(inverse_mass: f64, below: &Subtree) -> DVec3 {
+pub(crate) fn root_step(inverse_mass: f64, below: &Subtree, offset: DVec3) -> DVec3 {
     if inverse_mass <= 0.0 {
         return DVec3::ZERO;
     }
     let e = below.e + Sym3::diagonal(1.0 / inverse_mass);
-    finite_or_zero(e.inverse() * (below.g - below.force))
+    finite_or_zero(e.inverse() * (below.g - below.force - offset))
 }
 
 /// `v`, or zero where it is not finite.

@@ -67,8 +67,8 @@
 //! ```
 
 use super::direct::{
-    CURVATURE_BELOW, LineMode, MAX_PASSES, SHAKE_CONTRACTION, SHAKE_MIN_COSINE, SHAKE_PASSES,
-    STABILISE_ABOVE, TOLERANCE, converges_next,
+    CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION, SHAKE_MIN_COSINE,
+    SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -338,11 +338,18 @@ impl TreeSolve<'_, '_> {
             } else if self.first_round {
                 // (Not right after a fallback, see [`LineMode::FellBack`].)
                 let shake = self.shake && s[0].mode != LineMode::FellBack;
+                let keeps = curvature.len() == s.len() && self.mirror.is_none();
+                if keeps {
+                    self.keep_prediction(&view, curvature);
+                }
                 let violated;
                 (predicted, violated) = self.begin(&view, s, shake);
                 if violated > STABILISE_ABOVE {
                     self.take_back(&view, s);
                     self.stabilise_start(&view, s);
+                    if keeps {
+                        self.keep_prediction(&view, curvature);
+                    }
                     predicted = self.begin(&view, s, shake).0;
                 }
             }
@@ -350,12 +357,13 @@ impl TreeSolve<'_, '_> {
                 self.sweep(&view, s);
                 return 0;
             }
-            // (A projection starts with a curvature pass where one applies, see `curvature`.)
-            let curving = self.first_round
-                && self.shake
+            // (A projection starts with a curvature pass, and full Newton passes rescue it where
+            // Gauss–Newton does not converge, where they apply: see `curvature`.)
+            let rescuable = self.first_round
                 && self.mirror.is_none()
                 && predicted < CURVATURE_BELOW
                 && curvature.len() == s.len();
+            let curvature = rescuable.then_some(curvature);
             let passes = if s[0].mode == LineMode::Shake {
                 let (passes, converged) =
                     self.newton(&view, s, SHAKE_PASSES, SHAKE_CONTRACTION, predicted);
@@ -364,11 +372,10 @@ impl TreeSolve<'_, '_> {
                 } else {
                     self.take_back(&view, s);
                     s[0].mode = LineMode::FellBack;
-                    let curvature = curving.then_some(curvature);
                     passes + self.project(&view, s, curvature, f64::INFINITY)
                 }
             } else {
-                self.project(&view, s, curving.then_some(curvature), predicted)
+                self.project(&view, s, curvature, predicted)
             };
             for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
                 node.warm = self.lambda.get(k as usize);
@@ -378,8 +385,10 @@ impl TreeSolve<'_, '_> {
     }
 
     /// The projection's Newton passes from the prediction (nothing has moved the tree this
-    /// substep), the first with the constraints' curvature where `curvature` is given. Returns
-    /// the passes taken.
+    /// substep). Where `curvature` is given: the first with the constraints' curvature (under
+    /// SHAKE, whose warm start it uses), and full Newton passes where Gauss–Newton has not
+    /// converged after [`FULL_NEWTON_AFTER`] passes (see [`curvature`]). Returns the passes
+    /// taken.
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`], and `view` passed [`TreeSolve::check`].
@@ -395,10 +404,23 @@ impl TreeSolve<'_, '_> {
             let Some(curvature) = curvature else {
                 return self.newton(view, s, MAX_PASSES, f64::INFINITY, predicted).0;
             };
-            self.curvature_pass(view, s, curvature);
-            1 + self
-                .newton(view, s, MAX_PASSES - 1, f64::INFINITY, f64::INFINITY)
-                .0
+            let mut passes = 0;
+            if self.shake {
+                self.curvature_pass(view, s, curvature);
+                passes = 1;
+            }
+            let (taken, converged) = self.newton(
+                view,
+                s,
+                FULL_NEWTON_AFTER - passes,
+                f64::INFINITY,
+                f64::INFINITY,
+            );
+            passes += taken;
+            if !converged {
+                passes += self.full_newton(view, curvature, MAX_PASSES - passes);
+            }
+            passes
         }
     }
 

@@ -36,6 +36,7 @@
 
 use super::super::kkt::{self, Link, Subtree};
 use super::{LineRef, LineSolve};
+use glam::DVec3;
 
 /// Which end of a line the elimination ends at.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -65,8 +66,8 @@ impl LineSolve<'_, '_> {
         }
     }
 
-    /// The line's particle and stick at elimination step `t` (`t = 1..=m`, leaf first): the
-    /// child particle, its parent and the stick between them.
+    /// The line's child particle and stick at elimination step `t` (`t = 1..=m`, leaf
+    /// first), and the child's index in the line.
     ///
     /// # Safety
     /// `line` passed [`LineSolve::check`], `1 ≤ t ≤ m`.
@@ -76,8 +77,8 @@ impl LineSolve<'_, '_> {
         unsafe {
             let m = line.sticks.len();
             match root {
-                Root::First => (line.p(m - t + 1), line.p(m - t), m - t),
-                Root::Last => (line.p(t - 1), line.p(t), t - 1),
+                Root::First => (line.p(m - t + 1), m - t, m - t + 1),
+                Root::Last => (line.p(t - 1), t - 1, t - 1),
             }
         }
     }
@@ -96,8 +97,63 @@ impl LineSolve<'_, '_> {
                 self.lambda
                     .set_unchecked(s as usize, self.warm_of(s as usize, warm));
             }
-            let below = self.curvature_forward(line, root);
-            self.curvature_backward(line, root, below);
+            let below = self.curvature_forward::<false>(line, root);
+            self.curvature_backward(line, root, below, DVec3::ZERO);
+        }
+    }
+
+    /// Full Newton passes from the current iterate (the projection's residual `R` measured
+    /// against the substep's prediction, which [`LineSolve::begin`] kept) until the line is
+    /// within [`TOLERANCE`](super::TOLERANCE) or `budget` passes are done. Returns the passes
+    /// taken and whether it converged.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::curvature_pass`], but the line may have moved this substep; the line
+    /// is its island's only one, so `begin` kept its prediction.
+    pub(super) unsafe fn full_newton(
+        &self,
+        line: &LineRef,
+        root: Root,
+        budget: u32,
+    ) -> (u32, bool) {
+        // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
+        unsafe {
+            for passes in 0..budget {
+                let root_offset = {
+                    let j = if root == Root::First {
+                        0
+                    } else {
+                        line.sticks.len()
+                    };
+                    self.offset_of(line, line.p(j), j)
+                };
+                let below = self.curvature_forward::<true>(line, root);
+                self.curvature_backward(line, root, below, root_offset);
+                if self.residual(line) <= super::TOLERANCE {
+                    return (passes + 1, true);
+                }
+            }
+            (budget, false)
+        }
+    }
+
+    /// `M (x − x̃)` of the line's particle `p` (its index `j`), `x̃` the substep's prediction.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::full_newton`].
+    #[inline(always)]
+    unsafe fn offset_of(&self, line: &LineRef, p: usize, j: usize) -> DVec3 {
+        // SAFETY: in bounds (caller).
+        unsafe {
+            let w = self.w(p);
+            if w <= 0.0 {
+                return DVec3::ZERO;
+            }
+            let predicted = self
+                .scratch
+                .predicted
+                .get_unchecked(line.particle_offset + j);
+            (self.position.get_unchecked(p) - predicted) * (1.0 / w)
         }
     }
 
@@ -106,12 +162,13 @@ impl LineSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`LineSolve::curvature_pass`], and `root` from [`LineSolve::curvature_root`].
-    unsafe fn curvature_forward(&self, line: &LineRef, root: Root) -> Subtree {
+    /// With `MOVED`, the line may have moved from the prediction (`R` includes `M (x − x̃)`).
+    unsafe fn curvature_forward<const MOVED: bool>(&self, line: &LineRef, root: Root) -> Subtree {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
             let mut below = Subtree::default();
             for t in 1..=line.sticks.len() {
-                let (c, _, k) = self.curvature_link(line, root, t);
+                let (c, k, j) = self.curvature_link(line, root, t);
                 let s = line.s(k);
                 let row = self.row(line, k);
                 if !row.active {
@@ -133,6 +190,11 @@ impl LineSolve<'_, '_> {
                     },
                     alpha: self.compliance(s) * self.inv_h2,
                     inverse_mass: self.w(c),
+                    offset: if MOVED {
+                        self.offset_of(line, c, j)
+                    } else {
+                        DVec3::ZERO
+                    },
                     active: row.active,
                 };
                 let reduced;
@@ -149,7 +211,13 @@ impl LineSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`LineSolve::curvature_forward`], which ran just before.
-    unsafe fn curvature_backward(&self, line: &LineRef, root: Root, below: Subtree) {
+    unsafe fn curvature_backward(
+        &self,
+        line: &LineRef,
+        root: Root,
+        below: Subtree,
+        root_offset: DVec3,
+    ) {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
             let m = line.sticks.len();
@@ -157,10 +225,10 @@ impl LineSolve<'_, '_> {
                 Root::First => line.p(0),
                 Root::Last => line.p(m),
             };
-            let mut dx = kkt::root_step(self.w(root_particle), &below);
+            let mut dx = kkt::root_step(self.w(root_particle), &below, root_offset);
             self.shift(root_particle, dx);
             for t in (1..=m).rev() {
-                let (c, _, k) = self.curvature_link(line, root, t);
+                let (c, k, _) = self.curvature_link(line, root, t);
                 let s = line.s(k);
                 let d_lambda;
                 (d_lambda, dx) = self
@@ -231,7 +299,7 @@ mod tests {
         let (mut position, mut previous) = (c.x.clone(), c.x.clone());
         let mut lambda = vec![0.0; 4];
         let mut scratch = LineScratch::default();
-        scratch.resize(4, 0);
+        scratch.resize(4, 5, 0);
         scratch.warm.copy_from_slice(&c.lambda);
         let solve = LineSolve {
             position: SharedSlice::new(&mut position),
@@ -250,6 +318,7 @@ mod tests {
             particles: &[0, 1, 2, 3, 4],
             sticks: &[0, 1, 2, 3],
             offset: 0,
+            particle_offset: 0,
         };
         solve.check(&line);
         // SAFETY: this test alone holds the slices; `check` passed.

@@ -14,7 +14,12 @@
 //! Newton passes with equal masses 6446 → 5926, with 100× heavier tips 10 839 → 7001, with
 //! 1000× tips 28 707 → 7112; time 54.2–56.1 → 52.4–52.9 ms, 84.9–86.9 → 61.7–62.5 ms and
 //! 198.9–211.7 → 64.9–66.1 ms (the sweep: 7.8–7.9 ms; quiet runs — the machine is shared). Only
-//! in substeps that begin projected, as lines do: 5900, 8329 and 16 938 passes.
+//! in substeps that begin projected, as lines do: 5900, 8329 and 16 938 passes. (Before, the
+//! 1000× tips also kept 4.8 % strain in a substep whose passes ran out.) Where Gauss–Newton has
+//! not converged after [`FULL_NEWTON_AFTER`](super::super::direct::FULL_NEWTON_AFTER) passes,
+//! full Newton passes take over, as for lines: with 10⁵ and 10⁶ times heavier tips the Y rope
+//! kept 360–860× its links' lengths without them (81 519 / 81 805 passes), below 10⁻⁹ with them
+//! (22 863 / 16 966 passes).
 
 use super::super::kkt::{self, Link, Reduced, Subtree};
 use super::{Node, TreeSolve, TreeView};
@@ -29,11 +34,24 @@ pub(crate) struct TreeCurvature {
     reduced: Reduced,
     /// The node's `Δx`.
     dx: DVec3,
+    /// Where the substep's prediction put the node.
+    predicted: DVec3,
 }
 
 impl TreeSolve<'_, '_> {
+    /// Keeps where the prediction put every node, for [`TreeSolve::full_newton`].
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`]; `view` passed [`TreeSolve::check`], `c` is as long as it.
+    pub(super) unsafe fn keep_prediction(&self, view: &TreeView, c: &mut [TreeCurvature]) {
+        for (node, &p) in c.iter_mut().zip(view.particle) {
+            // SAFETY: in bounds (`check`) and this task's (caller).
+            node.predicted = unsafe { self.position.get_unchecked(p as usize) };
+        }
+    }
+
     /// One full Newton pass from the prediction, λ warm-started from the last substep (`s`'s
-    /// warm starts): leaves to root, then back.
+    /// warm starts).
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`]; `view` passed [`TreeSolve::check`], no particle but the
@@ -44,6 +62,45 @@ impl TreeSolve<'_, '_> {
         s: &[Node],
         c: &mut [TreeCurvature],
     ) {
+        for (node, &k) in s.iter().zip(view.stick).skip(1) {
+            let k = k as usize;
+            // SAFETY: a stick of the tree (`check`), this task's (caller).
+            unsafe { self.lambda.set_unchecked(k, self.warm_of(k, node.warm)) };
+        }
+        // SAFETY: as above (this function's contract).
+        unsafe { self.eliminate::<false>(view, c) };
+    }
+
+    /// Full Newton passes from the current iterate (its residual measured against the
+    /// prediction [`TreeSolve::keep_prediction`] kept) until the tree is within
+    /// [`TOLERANCE`](super::TOLERANCE) or `budget` passes are done. Returns the passes taken.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::curvature_pass`], but the tree may have moved since its prediction
+    /// was kept, this substep.
+    pub(super) unsafe fn full_newton(
+        &self,
+        view: &TreeView,
+        c: &mut [TreeCurvature],
+        budget: u32,
+    ) -> u32 {
+        for passes in 0..budget {
+            // SAFETY: as above (this function's contract).
+            unsafe { self.eliminate::<true>(view, c) };
+            // SAFETY: as above.
+            if unsafe { self.residual(view) } <= super::TOLERANCE {
+                return passes + 1;
+            }
+        }
+        budget
+    }
+
+    /// One full Newton pass: leaves to root, then back (see [`kkt`]). With `MOVED`, the tree
+    /// may have moved from its prediction (`R` includes `M (x − x̃)`).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::full_newton`].
+    unsafe fn eliminate<const MOVED: bool>(&self, view: &TreeView, c: &mut [TreeCurvature]) {
         for node in c.iter_mut() {
             node.below = Subtree::default();
         }
@@ -53,20 +110,22 @@ impl TreeSolve<'_, '_> {
             unsafe {
                 let row = self.row(view, t);
                 let k = row.stick;
-                let lambda = if row.active {
-                    self.warm_of(k, s.get_unchecked(t).warm)
-                } else {
-                    0.0
-                };
-                self.lambda.set_unchecked(k, lambda);
+                if !row.active {
+                    self.lambda.set_unchecked(k, 0.0);
+                }
                 let child = *view.particle.get_unchecked(t) as usize;
                 let link = Link {
                     normal: row.normal * row.sign, // (from the parent to the child)
                     c: row.c,
                     length: row.c + *self.sticks.rest_length.get_unchecked(k),
-                    lambda,
+                    lambda: self.lambda.get_unchecked(k),
                     alpha: *self.sticks.compliance.get_unchecked(k) * self.inv_h2,
                     inverse_mass: *self.inverse_mass.get_unchecked(child),
+                    offset: if MOVED {
+                        self.offset_of(child, c.get_unchecked(t).predicted)
+                    } else {
+                        DVec3::ZERO
+                    },
                     active: row.active,
                 };
                 let (reduced, up) = kkt::reduce(&link, &c.get_unchecked(t).below);
@@ -76,7 +135,13 @@ impl TreeSolve<'_, '_> {
             }
         }
         let root = view.particle[0] as usize;
-        c[0].dx = kkt::root_step(self.inverse_mass[root], &c[0].below);
+        let root_offset = if MOVED {
+            // SAFETY: as above.
+            unsafe { self.offset_of(root, c[0].predicted) }
+        } else {
+            DVec3::ZERO
+        };
+        c[0].dx = kkt::root_step(self.inverse_mass[root], &c[0].below, root_offset);
         // SAFETY: as above.
         unsafe { self.shift(root, c[0].dx) };
         for t in 1..view.particle.len() {
@@ -91,6 +156,22 @@ impl TreeSolve<'_, '_> {
                     .set_unchecked(k, self.lambda.get_unchecked(k) + d_lambda);
                 self.shift(*view.particle.get_unchecked(t) as usize, dx);
             }
+        }
+    }
+
+    /// `M (x − x̃)` of particle `p`, `x̃` its prediction.
+    ///
+    /// # Safety
+    /// `p` is a particle of a tree that passed [`TreeSolve::check`], held by this task.
+    #[inline(always)]
+    unsafe fn offset_of(&self, p: usize, predicted: DVec3) -> DVec3 {
+        // SAFETY: in bounds and this task's (caller).
+        unsafe {
+            let w = *self.inverse_mass.get_unchecked(p);
+            if w <= 0.0 {
+                return DVec3::ZERO;
+            }
+            (self.position.get_unchecked(p) - predicted) * (1.0 / w)
         }
     }
 
