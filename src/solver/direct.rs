@@ -128,6 +128,33 @@ pub const CURVATURE_BELOW: f64 = 0.1;
 /// Relative regularisation of the diagonal (keeps a taut straight chain between pins regular).
 const REGULARISATION: f64 = 1e-9;
 
+/// What [`LineSolve::begin`] measured at the prediction.
+pub(crate) struct Begun {
+    /// The largest `|C|/L` (before the warm start).
+    pub predicted: f64,
+    /// The largest `|C|/L` of a rigid stick at the start positions.
+    pub violated: f64,
+}
+
+impl Begun {
+    /// A later round of a substep: nothing measured, nothing to take back.
+    const LATER_ROUND: Begun = Begun {
+        predicted: f64::INFINITY,
+        violated: 0.0,
+    };
+}
+
+/// Whether a stick of `kind` stretched by `c` is in the system (see [`LineSolve::row`]).
+#[inline(always)]
+pub(crate) fn in_system(kind: StickKind, c: f64) -> bool {
+    match kind {
+        StickKind::Equal => true,
+        StickKind::AtMost => c > 0.0,
+        StickKind::AtLeast => c < 0.0,
+        StickKind::Torn => false,
+    }
+}
+
 /// Where a projection starts from (see [`LineSolve::project`]).
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Start {
@@ -364,17 +391,17 @@ impl LineSolve<'_, '_> {
             // converge; see [`LineSolve::project`].)
             let rescuable = self.first_round && self.alone && self.mirror.is_none();
             let curvable = rescuable && self.shake;
-            let (predicted, root) = if self.first_round {
+            let (begun, root) = if self.first_round {
                 self.start(line, curvable)
             } else {
-                (f64::INFINITY, None)
+                (Begun::LATER_ROUND, None)
             };
             let passes = match self.scratch.mode.get_unchecked(line.offset) {
                 LineMode::Sweep => {
                     self.sweep(line);
                     return 0;
                 }
-                LineMode::Shake => self.shake_or_project(line, predicted, rescuable),
+                LineMode::Shake => self.shake_or_project(line, &begun, rescuable),
                 _ => {
                     // (A root found already means the warm start was left out for it.)
                     let start = if root.is_some() {
@@ -386,7 +413,7 @@ impl LineSolve<'_, '_> {
                         None if rescuable => self.curvature_root(line),
                         root => root,
                     };
-                    self.project(line, predicted, root, start)
+                    self.project(line, &begun, root, start)
                 }
             };
             for (k, &s) in line.sticks.iter().enumerate() {
@@ -405,7 +432,7 @@ impl LineSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`].
-    unsafe fn start(&self, line: &LineRef, curvable: bool) -> (f64, Option<Root>) {
+    unsafe fn start(&self, line: &LineRef, curvable: bool) -> (Begun, Option<Root>) {
         // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
         // contract).
         unsafe {
@@ -416,16 +443,16 @@ impl LineSolve<'_, '_> {
                 .then(|| self.curvature_root(line))
                 .flatten();
             let warm = root.is_none();
-            let (mut predicted, violated) = self.begin(line, shake, warm);
+            let mut begun = self.begin(line, shake, warm);
             if self.alone
-                && violated > STABILISE_ABOVE
+                && begun.violated > STABILISE_ABOVE
                 && self.scratch.mode.get_unchecked(line.offset) != LineMode::Sweep
             {
                 self.take_back(line);
                 self.stabilise_start(line);
-                predicted = self.begin(line, shake, warm).0;
+                begun = self.begin(line, shake, warm);
             }
-            (predicted, root)
+            (begun, root)
         }
     }
 
@@ -435,17 +462,22 @@ impl LineSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`LineSolve::start`], which began this substep in [`LineMode::Shake`].
-    unsafe fn shake_or_project(&self, line: &LineRef, predicted: f64, rescuable: bool) -> u32 {
+    unsafe fn shake_or_project(&self, line: &LineRef, begun: &Begun, rescuable: bool) -> u32 {
         // SAFETY: as for `start` (this function's contract).
         unsafe {
-            let (passes, converged) =
-                self.newton(line, SHAKE_PASSES, SHAKE_CONTRACTION, predicted, false);
+            let (passes, converged) = self.newton(
+                line,
+                SHAKE_PASSES,
+                SHAKE_CONTRACTION,
+                begun.predicted,
+                false,
+            );
             if converged {
                 return passes;
             }
             self.restart_without_shake(line);
             let root = rescuable.then(|| self.curvature_root(line)).flatten();
-            passes + self.project(line, predicted, root, Start::Restarted)
+            passes + self.project(line, begun, root, Start::Restarted)
         }
     }
 
@@ -460,7 +492,7 @@ impl LineSolve<'_, '_> {
     unsafe fn project(
         &self,
         line: &LineRef,
-        predicted: f64,
+        begun: &Begun,
         root: Option<Root>,
         start: Start,
     ) -> u32 {
@@ -468,10 +500,10 @@ impl LineSolve<'_, '_> {
         unsafe {
             // (Both only where the prediction is within `CURVATURE_BELOW`: their linearisation is
             // poor under violent motion.)
-            let root = root.filter(|_| predicted < CURVATURE_BELOW);
+            let root = root.filter(|_| begun.predicted < CURVATURE_BELOW);
             let curving = root.filter(|_| self.shake && start != Start::Restarted);
             let mut passes = 0;
-            let mut predicted = predicted;
+            let mut predicted = begun.predicted;
             match curving {
                 Some(root) => {
                     if start == Start::Warmed {
@@ -671,7 +703,7 @@ impl LineSolve<'_, '_> {
     /// # Safety
     /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`] (every index below is
     /// accessed unchecked).
-    unsafe fn begin(&self, line: &LineRef, shake: bool, warm: bool) -> (f64, f64) {
+    unsafe fn begin(&self, line: &LineRef, shake: bool, warm: bool) -> Begun {
         // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
         // contract).
         unsafe {
@@ -755,7 +787,10 @@ impl LineSolve<'_, '_> {
                 LineMode::Project
             };
             v.mode.set_unchecked(line.offset, mode);
-            (predicted, violated)
+            Begun {
+                predicted,
+                violated,
+            }
         }
     }
 
@@ -834,13 +869,7 @@ impl LineSolve<'_, '_> {
             );
             let c = length - self.rest(s);
             let movable = self.w(p) + self.w(q) > 0.0;
-            let active = movable
-                && match self.kind(s) {
-                    StickKind::Equal => true,
-                    StickKind::AtMost => c > 0.0,
-                    StickKind::AtLeast => c < 0.0,
-                    StickKind::Torn => false,
-                };
+            let active = movable && in_system(self.kind(s), c);
             Row { normal, c, active }
         }
     }
@@ -863,13 +892,7 @@ impl LineSolve<'_, '_> {
                     (self.position.get_unchecked(q) - self.position.get_unchecked(p)).length();
                 let rest = self.rest(s);
                 let c = length - rest;
-                let active = self.w(p) + self.w(q) > 0.0
-                    && match self.kind(s) {
-                        StickKind::Equal => true,
-                        StickKind::AtMost => c > 0.0,
-                        StickKind::AtLeast => c < 0.0,
-                        StickKind::Torn => false,
-                    };
+                let active = self.w(p) + self.w(q) > 0.0 && in_system(self.kind(s), c);
                 if active {
                     let alpha = self.compliance(s) * self.inv_h2;
                     let residual = c + alpha * self.lambda.get_unchecked(s);

@@ -1,7 +1,7 @@
 //! Symmetric 3 × 3 matrices, six entries: what the curvature pass's elimination multiplies and
 //! inverts (half the arithmetic of a general 3 × 3 matrix).
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use std::ops::{Add, Mul};
 
 /// A symmetric 3 × 3 matrix (upper triangle, row by row).
@@ -52,6 +52,37 @@ impl Sym3 {
             yz: a.y * b.z + b.y * a.z,
             zz: 2.0 * a.z * b.z,
         }
+    }
+
+    /// The product with another symmetric matrix (not symmetric in general).
+    #[inline(always)]
+    pub(crate) fn times(self, other: Sym3) -> DMat3 {
+        let (a, b) = (self.dense(), other.dense());
+        a * b
+    }
+
+    /// `(A + Aᵀ)/2` of a general matrix.
+    #[inline(always)]
+    pub(crate) fn symmetric_part(m: &DMat3) -> Self {
+        let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis); // columns
+        Self {
+            xx: x.x,
+            xy: 0.5 * (y.x + x.y),
+            xz: 0.5 * (z.x + x.z),
+            yy: y.y,
+            yz: 0.5 * (z.y + y.z),
+            zz: z.z,
+        }
+    }
+
+    /// As a general matrix.
+    #[inline(always)]
+    fn dense(self) -> DMat3 {
+        DMat3::from_cols(
+            DVec3::new(self.xx, self.xy, self.xz),
+            DVec3::new(self.xy, self.yy, self.yz),
+            DVec3::new(self.xz, self.yz, self.zz),
+        )
     }
 
     /// The inverse by cofactors (not finite where the matrix is singular).
@@ -148,5 +179,10 @@ mod tests {
         assert!(dense(s).abs_diff_eq(want, 1e-12));
         assert!(dense(s.inverse()).abs_diff_eq(want.inverse(), 1e-12));
         assert!(dense(s * 2.0).abs_diff_eq(want * 2.0, 1e-12));
+        let other = Sym3::diagonal(0.5) + Sym3::outer(b, 1.5);
+        let product = want * dense(other);
+        assert!(s.times(other).abs_diff_eq(product, 1e-12));
+        let symmetric = (product + product.transpose()) * 0.5;
+        assert!(dense(Sym3::symmetric_part(&product)).abs_diff_eq(symmetric, 1e-12));
     }
 }

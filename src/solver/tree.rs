@@ -67,8 +67,8 @@
 //! ```
 
 use super::direct::{
-    CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION, SHAKE_MIN_COSINE,
-    SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next,
+    Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
+    SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next, in_system,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -342,16 +342,16 @@ impl TreeSolve<'_, '_> {
                 if keeps {
                     self.keep_prediction(&view, curvature);
                 }
-                let violated;
-                (predicted, violated) = self.begin(&view, s, shake);
-                if violated > STABILISE_ABOVE {
+                let mut begun = self.begin(&view, s, shake);
+                if begun.violated > STABILISE_ABOVE {
                     self.take_back(&view, s);
                     self.stabilise_start(&view, s);
                     if keeps {
                         self.keep_prediction(&view, curvature);
                     }
-                    predicted = self.begin(&view, s, shake).0;
+                    begun = self.begin(&view, s, shake);
                 }
+                predicted = begun.predicted;
             }
             if s[0].mode == LineMode::Sweep {
                 self.sweep(&view, s);
@@ -510,7 +510,7 @@ impl TreeSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
-    unsafe fn begin(&self, view: &TreeView, s: &mut [Node], shake: bool) -> (f64, f64) {
+    unsafe fn begin(&self, view: &TreeView, s: &mut [Node], shake: bool) -> Begun {
         let mut shake = shake;
         let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
         // SAFETY: the tree's particles and multipliers are this task's (caller).
@@ -548,7 +548,10 @@ impl TreeSolve<'_, '_> {
                 self.move_ends(k, node.start * warm);
             }
         }
-        (predicted, violated)
+        Begun {
+            predicted,
+            violated,
+        }
     }
 
     /// Moves the start-of-substep positions onto the constraints (Newton on the previous
@@ -652,13 +655,7 @@ impl TreeSolve<'_, '_> {
             )
         };
         let c = length - rest;
-        let active = movable
-            && match kind {
-                StickKind::Equal => true,
-                StickKind::AtMost => c > 0.0,
-                StickKind::AtLeast => c < 0.0,
-                StickKind::Torn => false,
-            };
+        let active = movable && in_system(kind, c);
         let sign = if b as u32 == node { 1.0 } else { -1.0 };
         Row {
             stick: k,
@@ -689,13 +686,7 @@ impl TreeSolve<'_, '_> {
             let rest = self.sticks.rest_length[k];
             let c = d.length() - rest;
             let movable = self.inverse_mass[a] + self.inverse_mass[b] > 0.0;
-            let active = movable
-                && match self.sticks.kind[k] {
-                    StickKind::Equal => true,
-                    StickKind::AtMost => c > 0.0,
-                    StickKind::AtLeast => c < 0.0,
-                    StickKind::Torn => false,
-                };
+            let active = movable && in_system(self.sticks.kind[k], c);
             if active {
                 let residual = c + self.sticks.compliance[k] * self.inv_h2 * lambda;
                 worst = worst.max(residual.abs() / rest.max(1e-12));
