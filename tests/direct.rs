@@ -97,7 +97,8 @@ fn heavy_tip_chain_hangs_unstretched() {
 
 /// Heavy tip released from horizontal, no damping, 5 s: largest link strain at any step.
 /// Measured: sweeps at 8 × 1 908 %; lines below 10⁻⁶ % (goal: below 1 %). Also the cost, in
-/// Newton passes (a count, not a time): 10 331 (4.0 per substep, a curvature pass counted as one)
+/// Newton passes (a count, not a time): 10 143 (4.0 per substep, a curvature or full Newton pass
+/// counted as one; 10 331 before the full Newton rescue)
 /// since a substep that begins projected starts with the constraints' curvature
 /// (`solver::direct`, module `curvature`); 14 285 (5.6 per substep) since a substep after a
 /// SHAKE fallback is projected without trying SHAKE (`LineMode::FellBack`); 16 409 before, when
