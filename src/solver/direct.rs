@@ -311,8 +311,8 @@ pub(crate) struct LineSolve<'a, 'v> {
     pub first_round: bool,
     /// The line is its island's only one. Then start violations above [`STABILISE_ABOVE`] come
     /// from edits and spawns, not from the solve (it ended the last substep converged), and are
-    /// corrected on the start positions (see [`LineSolve::stabilise_start`]); and its projection
-    /// starts with a curvature pass (see [`curvature`]).
+    /// corrected on the start positions (see [`LineSolve::stabilise_start`]); and its
+    /// projections may take curvature and full Newton passes (see [`LineSolve::project`]).
     pub alone: bool,
 }
 
@@ -385,10 +385,8 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line (this function's contract), and its indices
         // are in bounds (checked just above): the contract of every function called below.
         unsafe {
-            // A line alone in its island starts a substep that begins projected (not SHAKE) with
-            // the constraints' curvature (see [`curvature`]).
-            // (Full Newton passes rescue a line alone in its island where Gauss–Newton does not
-            // converge; see [`LineSolve::project`].)
+            // A line alone in its island may start a projection with the constraints' curvature
+            // and be rescued by full Newton passes (see [`LineSolve::project`]).
             let rescuable = self.first_round && self.alone && self.mirror.is_none();
             let curvable = rescuable && self.shake;
             let (begun, root) = if self.first_round {
@@ -428,7 +426,7 @@ impl LineSolve<'_, '_> {
     /// The start of a substep: [`LineSolve::begin`], and the start positions stabilised where
     /// that applies. Without SHAKE this substep, where a curvature pass may follow (`curvable`
     /// and the line has a root for it), the warm start is left out (the pass starts from the
-    /// prediction). Returns the largest `|C|/L` before the warm start and that root.
+    /// prediction). Returns what `begin` measured and that root.
     ///
     /// # Safety
     /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`].
