@@ -68,7 +68,7 @@
 
 use super::direct::{
     Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
-    SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next, in_system,
+    SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next, in_system_held,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -530,6 +530,10 @@ impl TreeSolve<'_, '_> {
                     violated = violated.max((start_length - rest).abs() / rest);
                 }
                 shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
+                if !in_system_held(self.sticks.kind[k], length - rest, node.warm, rest) {
+                    // (A slack one-sided stick gets no warm start: a pull no pass takes back.)
+                    node.warm = 0.0;
+                }
                 node.start = start;
             }
             s[0].mode = if shake {
@@ -655,7 +659,9 @@ impl TreeSolve<'_, '_> {
             )
         };
         let c = length - rest;
-        let active = movable && in_system(kind, c);
+        // SAFETY: a stick of the tree (`check`), this task's (caller).
+        let lambda = unsafe { self.lambda.get_unchecked(k) };
+        let active = movable && in_system_held(kind, c, lambda, rest);
         let sign = if b as u32 == node { 1.0 } else { -1.0 };
         Row {
             stick: k,
@@ -686,7 +692,7 @@ impl TreeSolve<'_, '_> {
             let rest = self.sticks.rest_length[k];
             let c = d.length() - rest;
             let movable = self.inverse_mass[a] + self.inverse_mass[b] > 0.0;
-            let active = movable && in_system(self.sticks.kind[k], c);
+            let active = movable && in_system_held(self.sticks.kind[k], c, lambda, rest);
             if active {
                 let residual = c + self.sticks.compliance[k] * self.inv_h2 * lambda;
                 worst = worst.max(residual.abs() / rest.max(1e-12));
