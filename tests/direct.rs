@@ -197,40 +197,38 @@ fn a_slack_rope_between_pins_never_gains_energy() {
     );
 }
 
-/// Rope links (`AtMost`) under heavy loads: 100 links of 1 cm from a pin, released from
-/// horizontal, no damping, 5 s, largest link strain. Measured: tips 100× and 1000× below
-/// 10⁻⁹, 10⁴× 0.15 % (before a rope link in tension was held in the system within 1 % of its
-/// length, `HOLD`: 0.25 %, 6.6 % and 1150 %: the active set flipped from pass to pass).
+/// Rope links push nothing: 10 rope links (`AtMost`, 10 cm) hang from a pin under gravity for
+/// 2 s (their links in tension, warm-started), then the tip is tossed up at 0.4 m/s. Its link
+/// goes slack, so after one step the tip flies on at 0.4 m/s less gravity's share, damped by 2/s
+/// for 1/64 s: `(0.4 − 9.81/64)·e^(−2/64)` = 0.239 m/s. (A rope link held in the system while
+/// it went slack, tried on 2026-11-26 and not kept, stopped it: a rope pushed.)
 #[test]
-fn rope_links_under_heavy_loads_swing_unstretched() {
-    for (tip, bound) in [(100.0, 1e-6), (1000.0, 1e-6), (1e4, 1e-2)] {
-        let mut solver = Solver::default();
-        let pin = solver.add_particle(DVec3::ZERO, 0.0);
-        solver.pin(pin, DVec3::ZERO);
-        let mut previous = pin;
-        for i in 1..=100 {
-            let w = if i == 100 { 1.0 / tip } else { 1.0 };
-            let p = solver.add_particle(DVec3::X * (0.01 * i as f64), w);
-            solver.sticks.push(
-                [previous, p],
-                0.01,
-                0.0,
-                StickKind::AtMost,
-                f64::INFINITY,
-                0,
-            );
-            previous = p;
-        }
-        solver.organize();
-        let config = config(0.0, true);
-        let mut worst: f64 = 0.0;
-        for _ in 0..320 {
-            solver.step(&config);
-            worst = worst.max(max_strain(&solver));
-        }
-        println!("rope links, tip {tip}×: max strain {:.2e} %", worst * 100.0);
-        assert!(worst < bound, "tip {tip}: max strain {worst}");
+fn a_tossed_rope_end_flies_freely() {
+    let mut solver = Solver::default();
+    let pin = solver.add_particle(DVec3::ZERO, 0.0);
+    solver.pin(pin, DVec3::ZERO);
+    let mut previous = pin;
+    for i in 1..=10 {
+        let p = solver.add_particle(DVec3::NEG_Y * (0.1 * i as f64), 1.0);
+        let kind = StickKind::AtMost;
+        solver
+            .sticks
+            .push([previous, p], 0.1, 0.0, kind, f64::INFINITY, 0);
+        previous = p;
     }
+    solver.organize();
+    let config = config(2.0, true);
+    for _ in 0..128 {
+        solver.step(&config);
+    }
+    let tip = previous as usize;
+    let h = config.timestep / config.substeps as f64;
+    let x = solver.particles.position[tip];
+    solver.particles.previous[tip] = x - DVec3::Y * (0.4 * h);
+    solver.step(&config);
+    let speed = (solver.particles.position[tip] - solver.particles.previous[tip]).y / h;
+    println!("tossed rope end: {speed:.3} m/s after one step");
+    assert!((speed - 0.239).abs() < 0.01, "the tip flies at {speed} m/s");
 }
 
 /// 200 links of 1 cm from one pin, released horizontal, damping 0.5/s, 20 s: largest link

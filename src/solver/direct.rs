@@ -155,28 +155,6 @@ pub(crate) fn in_system(kind: StickKind, c: f64) -> bool {
     }
 }
 
-/// As [`in_system`], and a one-sided stick that carries its force (a rope link in tension)
-/// stays in the system while within [`HOLD`] of its length. Newton passes that drop such a link
-/// whenever a pass leaves it a hair short, and take it back when the next leaves it long, run
-/// out of passes on a whipping rope: 100 rope links of 1 cm from a pin, released from
-/// horizontal, 5 s at 8 × 1, kept a largest strain of 0.25 % / 6.6 % / 1150 % with a tip 100× /
-/// 1000× / 10⁴× a link; held, below 10⁻⁹ / 10⁻⁹ / 0.15 % (`tests/direct.rs`,
-/// `rope_links_under_heavy_loads_swing_unstretched`). Only such a stick is warm-started (a
-/// slack one's warm start was a pull that no pass took back: a slack rope between two pins
-/// gained up to 1079 J in 5 s from nothing, `a_slack_rope_between_pins_never_gains_energy`).
-#[inline(always)]
-pub(crate) fn in_system_held(kind: StickKind, c: f64, lambda: f64, rest: f64) -> bool {
-    in_system(kind, c)
-        || match kind {
-            StickKind::AtMost => lambda < 0.0 && c > -HOLD * rest,
-            StickKind::AtLeast => lambda > 0.0 && c < HOLD * rest,
-            _ => false,
-        }
-}
-
-/// How close to its length (relative) a one-sided stick carrying its force stays in the system.
-pub const HOLD: f64 = 0.01;
-
 /// Where a projection starts from (see [`LineSolve::project`]).
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Start {
@@ -774,11 +752,11 @@ impl LineSolve<'_, '_> {
                     // of `tests/direct.rs`. Trees start projected substeps from the prediction.
                     // A one-sided stick is warm-started only in the direction it can act.)
                     // (Not for a one-sided stick out of the system at the prediction — a slack
-                    // rope link: its warm start would be a pull no pass takes back, see
-                    // [`in_system_held`].)
-                    let last = v.warm.get_unchecked(line.offset + j);
-                    let warm = if warm && in_system_held(kind, length - rest, last, rest) {
-                        self.warm_of(s, last)
+                    // rope link: its warm start was a pull no pass took back; a slack rope
+                    // between two pins gained up to 1079 J in 5 s from rest that way, see
+                    // `a_slack_rope_between_pins_never_gains_energy` in `tests/direct.rs`.)
+                    let warm = if warm && in_system(kind, length - rest) {
+                        self.warm_of(s, v.warm.get_unchecked(line.offset + j))
                     } else {
                         0.0
                     };
@@ -893,8 +871,7 @@ impl LineSolve<'_, '_> {
             );
             let c = length - self.rest(s);
             let movable = self.w(p) + self.w(q) > 0.0;
-            let lambda = self.lambda.get_unchecked(s);
-            let active = movable && in_system_held(self.kind(s), c, lambda, self.rest(s));
+            let active = movable && in_system(self.kind(s), c);
             Row { normal, c, active }
         }
     }
@@ -917,9 +894,7 @@ impl LineSolve<'_, '_> {
                     (self.position.get_unchecked(q) - self.position.get_unchecked(p)).length();
                 let rest = self.rest(s);
                 let c = length - rest;
-                let lambda = self.lambda.get_unchecked(s);
-                let active =
-                    self.w(p) + self.w(q) > 0.0 && in_system_held(self.kind(s), c, lambda, rest);
+                let active = self.w(p) + self.w(q) > 0.0 && in_system(self.kind(s), c);
                 if active {
                     let alpha = self.compliance(s) * self.inv_h2;
                     let residual = c + alpha * self.lambda.get_unchecked(s);

@@ -68,7 +68,7 @@
 
 use super::direct::{
     Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
-    SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next, in_system_held,
+    SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next, in_system,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -530,7 +530,7 @@ impl TreeSolve<'_, '_> {
                     violated = violated.max((start_length - rest).abs() / rest);
                 }
                 shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
-                if !in_system_held(self.sticks.kind[k], length - rest, node.warm, rest) {
+                if !in_system(self.sticks.kind[k], length - rest) {
                     // (A slack one-sided stick gets no warm start: a pull no pass takes back.)
                     node.warm = 0.0;
                 }
@@ -659,9 +659,7 @@ impl TreeSolve<'_, '_> {
             )
         };
         let c = length - rest;
-        // SAFETY: a stick of the tree (`check`), this task's (caller).
-        let lambda = unsafe { self.lambda.get_unchecked(k) };
-        let active = movable && in_system_held(kind, c, lambda, rest);
+        let active = movable && in_system(kind, c);
         let sign = if b as u32 == node { 1.0 } else { -1.0 };
         Row {
             stick: k,
@@ -692,7 +690,7 @@ impl TreeSolve<'_, '_> {
             let rest = self.sticks.rest_length[k];
             let c = d.length() - rest;
             let movable = self.inverse_mass[a] + self.inverse_mass[b] > 0.0;
-            let active = movable && in_system_held(self.sticks.kind[k], c, lambda, rest);
+            let active = movable && in_system(self.sticks.kind[k], c);
             if active {
                 let residual = c + self.sticks.compliance[k] * self.inv_h2 * lambda;
                 worst = worst.max(residual.abs() / rest.max(1e-12));
