@@ -46,6 +46,16 @@ fn max_strain(solver: &Solver) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Steps `solver` `steps` times; the largest link strain after any step.
+fn largest_strain_over(solver: &mut Solver, config: &StepConfig, steps: usize) -> f64 {
+    (0..steps)
+        .map(|_| {
+            solver.step(config);
+            max_strain(solver)
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Total length over total rest length, minus 1.
 fn total_stretch(solver: &Solver) -> f64 {
     let (mut length, mut rest) = (0.0, 0.0);
@@ -111,11 +121,7 @@ fn heavy_tip_chain_swings_unstretched() {
     for method in [Method::Sweep, Method::Lines] {
         let mut solver = chain(100, 1.0, DVec3::X, 1000.0, method);
         let config = config(0.0, true);
-        let mut worst: f64 = 0.0;
-        for _ in 0..320 {
-            solver.step(&config);
-            worst = worst.max(max_strain(&solver));
-        }
+        let worst = largest_strain_over(&mut solver, &config, 320);
         println!(
             "{method:?}: swinging max link strain {:.4} %, {} Newton passes",
             worst * 100.0,
@@ -141,11 +147,7 @@ fn extreme_loads_swing_unstretched() {
         let forked = y_rope(tip, DVec3::X, Method::Auto);
         for (name, mut solver) in [("chain", chain), ("Y rope", forked)] {
             let config = config(0.0, true);
-            let mut worst: f64 = 0.0;
-            for _ in 0..320 {
-                solver.step(&config);
-                worst = worst.max(max_strain(&solver));
-            }
+            let worst = largest_strain_over(&mut solver, &config, 320);
             println!(
                 "{name} with {tip:e}× loads swinging: max strain {:.2e} %, {} Newton passes",
                 worst * 100.0,
@@ -331,11 +333,7 @@ fn a_forked_rope_swings_unstretched() {
         let mut solver = y_rope(tip, DVec3::X, Method::Auto);
         assert!(solver.islands.list[0].tree.is_some(), "solved as a tree");
         let config = config(0.0, true);
-        let mut worst: f64 = 0.0;
-        for _ in 0..320 {
-            solver.step(&config);
-            worst = worst.max(max_strain(&solver));
-        }
+        let worst = largest_strain_over(&mut solver, &config, 320);
         let passes = solver.line_passes();
         println!(
             "Y rope swinging, tips {tip}×: max strain {:.2e} %, {passes} Newton passes",

@@ -288,27 +288,28 @@ mod tests {
 
     const INV_H2: f64 = 4096.0;
 
-    /// The pass's `Δx` and `Δλ`, or `None` where it does not apply.
-    fn by_pass(c: &Case) -> Option<(Vec<DVec3>, Vec<f64>)> {
+    /// Runs `f` on the case's line (positions `position`, multipliers `lambda`, scratch
+    /// `scratch`), after its bounds check.
+    fn on_line<R>(
+        c: &Case,
+        (position, lambda, scratch): (&mut [DVec3], &mut [f64], &mut LineScratch),
+        f: impl FnOnce(&LineSolve, &LineRef) -> R,
+    ) -> R {
         let mut sticks = Sticks::default();
         for k in 0..4 {
             let (rest, compliance) = (c.rest[k], c.compliance[k]);
             let ends = [k as u32, k as u32 + 1];
             sticks.push(ends, rest, compliance, c.kind[k], f64::INFINITY, 0);
         }
-        let (mut position, mut previous) = (c.x.clone(), c.x.clone());
-        let mut lambda = vec![0.0; 4];
-        let mut scratch = LineScratch::default();
-        scratch.resize(4, 5, 0);
-        scratch.warm.copy_from_slice(&c.lambda);
+        let mut previous = c.x.clone();
         let solve = LineSolve {
-            position: SharedSlice::new(&mut position),
+            position: SharedSlice::new(position),
             previous: SharedSlice::new(&mut previous),
             mirror: None,
-            lambda: SharedSlice::new(&mut lambda),
+            lambda: SharedSlice::new(lambda),
             inverse_mass: &c.w,
             sticks: &sticks,
-            scratch: LineViews::new(&mut scratch),
+            scratch: LineViews::new(scratch),
             inv_h2: INV_H2,
             shake: true,
             first_round: true,
@@ -321,11 +322,24 @@ mod tests {
             particle_offset: 0,
         };
         solve.check(&line);
-        // SAFETY: this test alone holds the slices; `check` passed.
-        let root = unsafe { solve.curvature_root(&line) }?;
-        // SAFETY: as above; nothing moved the line.
-        unsafe { solve.curvature_pass(&line, root) };
-        Some({
+        f(&solve, &line)
+    }
+
+    /// The pass's `Δx` and `Δλ`, or `None` where it does not apply.
+    fn by_pass(c: &Case) -> Option<(Vec<DVec3>, Vec<f64>)> {
+        let mut position = c.x.clone();
+        let mut lambda = vec![0.0; 4];
+        let mut scratch = LineScratch::default();
+        scratch.resize(4, 5, 0);
+        scratch.warm.copy_from_slice(&c.lambda);
+        let slices = (&mut position[..], &mut lambda[..], &mut scratch);
+        // SAFETY: this test alone holds the slices; `check` passed; nothing moved the line.
+        let applied = on_line(c, slices, |solve, line| unsafe {
+            let root = solve.curvature_root(line)?;
+            solve.curvature_pass(line, root);
+            Some(())
+        });
+        applied.map(|()| {
             let dx = position.iter().zip(&c.x).map(|(a, b)| *a - *b).collect();
             let dl = lambda.iter().zip(&c.lambda).map(|(a, b)| a - b).collect();
             (dx, dl)
@@ -398,48 +412,24 @@ mod tests {
     #[test]
     fn full_newton_from_a_moved_iterate_reaches_the_projection() {
         for w in [[0.0, 1.0, 2.0, 0.5, 0.001], [0.001, 1.0, 2.0, 0.5, 0.0]] {
-            let c = case(w);
-            let mut sticks = Sticks::default();
-            for k in 0..4 {
-                let ends = [k as u32, k as u32 + 1];
-                sticks.push(ends, c.rest[k], 0.0, StickKind::Equal, f64::INFINITY, 0);
-            }
+            let mut c = case(w);
+            c.compliance = vec![0.0; 4];
             // The prediction `c.x`; the iterate moved off it, λ made up.
-            let moved: Vec<DVec3> = (0..5)
+            let mut position: Vec<DVec3> = (0..5)
                 .map(|j| {
                     c.x[j] + DVec3::new(0.003, -0.002, 0.001) * (j as f64) * f64::from(w[j] > 0.0)
                 })
                 .collect();
-            let (mut position, mut previous) = (moved.clone(), c.x.clone());
             let mut lambda = vec![-0.2, -0.1, 0.05, -0.3];
             let mut scratch = LineScratch::default();
             scratch.resize(4, 5, 0);
             scratch.predicted.copy_from_slice(&c.x);
-            let solve = LineSolve {
-                position: SharedSlice::new(&mut position),
-                previous: SharedSlice::new(&mut previous),
-                mirror: None,
-                lambda: SharedSlice::new(&mut lambda),
-                inverse_mass: &c.w,
-                sticks: &sticks,
-                scratch: LineViews::new(&mut scratch),
-                inv_h2: INV_H2,
-                shake: true,
-                first_round: true,
-                alone: true,
-            };
-            let line = LineRef {
-                particles: &[0, 1, 2, 3, 4],
-                sticks: &[0, 1, 2, 3],
-                offset: 0,
-                particle_offset: 0,
-            };
-            solve.check(&line);
+            let slices = (&mut position[..], &mut lambda[..], &mut scratch);
             // SAFETY: this test alone holds the slices; `check` passed; the prediction is kept.
-            let (passes, converged) = unsafe {
-                let root = solve.curvature_root(&line).unwrap();
-                solve.full_newton(&line, root, 16)
-            };
+            let (passes, converged) = on_line(&c, slices, |solve, line| unsafe {
+                let root = solve.curvature_root(line).unwrap();
+                solve.full_newton(line, root, 16)
+            });
             assert!(converged && passes <= 8, "{passes} passes");
             for j in 0..5 {
                 if w[j] <= 0.0 {
