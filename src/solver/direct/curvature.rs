@@ -328,7 +328,7 @@ mod tests {
     /// The pass's `Δx` and `Δλ`, or `None` where it does not apply.
     fn by_pass(c: &Case) -> Option<(Vec<DVec3>, Vec<f64>)> {
         let mut position = c.x.clone();
-        let mut lambda = vec![0.0; 4];
+        let mut lambda = [0.0; 4];
         let mut scratch = LineScratch::default();
         scratch.resize(4, 5, 0);
         scratch.warm.copy_from_slice(&c.lambda);
@@ -420,7 +420,7 @@ mod tests {
                     c.x[j] + DVec3::new(0.003, -0.002, 0.001) * (j as f64) * f64::from(w[j] > 0.0)
                 })
                 .collect();
-            let mut lambda = vec![-0.2, -0.1, 0.05, -0.3];
+            let mut lambda = [-0.2, -0.1, 0.05, -0.3];
             let mut scratch = LineScratch::default();
             scratch.resize(4, 5, 0);
             scratch.predicted.copy_from_slice(&c.x);
