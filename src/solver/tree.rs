@@ -40,7 +40,8 @@
 //!
 //! Trees with more than one immovable particle stay on lines (two pins make the system
 //! singular when the path between them is taut, which the line solve detects and sweeps). A
-//! stick torn in place or a one-sided stick out of its active set is a row with `Δλ = 0`: its
+//! stick torn in place or a one-sided stick out of its active set (see
+//! [`in_system_with`](super::direct::in_system_with)) is a row with `Δλ = −λ` (released): its
 //! subtree moves on its own.
 //!
 //! ```
@@ -69,6 +70,7 @@
 use super::direct::{
     Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
     SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next, in_system,
+    in_system_with, line_residual,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -305,6 +307,11 @@ struct Row {
     normal: DVec3,
     c: f64,
     active: bool,
+    /// The stick's multiplier at the iterate (released, `Δλ = −λ`, where it is not active).
+    lambda: f64,
+    kind: StickKind,
+    /// `w_a + w_b`.
+    inverse_masses: f64,
 }
 
 impl TreeSolve<'_, '_> {
@@ -530,7 +537,7 @@ impl TreeSolve<'_, '_> {
                     violated = violated.max((start_length - rest).abs() / rest);
                 }
                 shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
-                if !in_system(self.sticks.kind[k], length - rest) {
+                if !in_system(self.sticks.kind[k], length - rest, rest) {
                     // (A slack one-sided stick gets no warm start: a pull no pass takes back.)
                     node.warm = 0.0;
                 }
@@ -650,16 +657,17 @@ impl TreeSolve<'_, '_> {
         };
         let (normal, length) = unit_and_length(d, k);
         // SAFETY: as above.
-        let (rest, kind, movable, node) = unsafe {
+        let (rest, kind, inverse_masses, node, lambda) = unsafe {
             (
                 *self.sticks.rest_length.get_unchecked(k),
                 *self.sticks.kind.get_unchecked(k),
-                self.inverse_mass.get_unchecked(a) + self.inverse_mass.get_unchecked(b) > 0.0,
+                self.inverse_mass.get_unchecked(a) + self.inverse_mass.get_unchecked(b),
                 *view.particle.get_unchecked(t),
+                self.lambda.get_unchecked(k),
             )
         };
         let c = length - rest;
-        let active = movable && in_system(kind, c);
+        let active = inverse_masses > 0.0 && in_system_with(kind, c, lambda * inverse_masses, rest);
         let sign = if b as u32 == node { 1.0 } else { -1.0 };
         Row {
             stick: k,
@@ -667,6 +675,9 @@ impl TreeSolve<'_, '_> {
             normal,
             c,
             active,
+            lambda,
+            kind,
+            inverse_masses,
         }
     }
 
@@ -688,13 +699,14 @@ impl TreeSolve<'_, '_> {
                 )
             };
             let rest = self.sticks.rest_length[k];
-            let c = d.length() - rest;
-            let movable = self.inverse_mass[a] + self.inverse_mass[b] > 0.0;
-            let active = movable && in_system(self.sticks.kind[k], c);
-            if active {
-                let residual = c + self.sticks.compliance[k] * self.inv_h2 * lambda;
-                worst = worst.max(residual.abs() / rest.max(1e-12));
-            }
+            let residual = line_residual(
+                self.sticks.kind[k],
+                [d.length() - rest, rest],
+                lambda,
+                self.inverse_mass[a] + self.inverse_mass[b],
+                self.sticks.compliance[k] * self.inv_h2,
+            );
+            worst = worst.max(residual / rest.max(1e-12));
         }
         worst
     }
@@ -730,23 +742,36 @@ impl TreeSolve<'_, '_> {
                 node.clear();
                 let k = row.stick;
                 let alpha = *self.sticks.compliance.get_unchecked(k) * self.inv_h2;
-                let residual = row.c + alpha * self.lambda.get_unchecked(k);
-                if MEASURE && row.active {
+                let residual = row.c + alpha * row.lambda;
+                if MEASURE {
                     let rest = *self.sticks.rest_length.get_unchecked(k);
-                    worst = worst.max(residual.abs() / rest.max(1e-12));
+                    let error = line_residual(
+                        row.kind,
+                        [row.c, rest],
+                        row.lambda,
+                        row.inverse_masses,
+                        alpha,
+                    );
+                    worst = worst.max(error / rest.max(1e-12));
                 }
                 let n = row.normal * row.sign;
                 let d = n.dot(node.u) * (1.0 + REGULARISATION) + alpha;
                 // (Under SHAKE the system is not symmetric and a pivot may be negative; zero is
                 // a stick no particle of its subtree can move: an immovable child, which
                 // `build` roots at, or a pin added in place.)
-                if !row.active || d == 0.0 || !d.is_finite() {
+                if d == 0.0 || !d.is_finite() {
                     node.a = DVec3::ZERO;
                     node.beta = 0.0;
                     continue;
                 }
-                node.a = n / d;
-                node.beta = (-residual - n.dot(node.v)) / d;
+                if row.active {
+                    node.a = n / d;
+                    node.beta = (-residual - n.dot(node.v)) / d;
+                } else {
+                    // Released: Δλ = −λ, whatever its parent does (which sees its move).
+                    node.a = DVec3::ZERO;
+                    node.beta = -row.lambda;
+                }
                 // Into the parent: A_p −= w_p s_p r aᵀ, g_p += w_p s_p r β (s_p = −s_j).
                 let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
                 let wp = *self
