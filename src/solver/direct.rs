@@ -127,6 +127,15 @@ pub const SHAKE_CONTRACTION: f64 = 0.1;
 /// without this bound; the whipping chains of the report stay below it.
 pub const CURVATURE_BELOW: f64 = 0.1;
 
+/// Full Newton passes rescue a projection whose Gauss–Newton passes have not converged only
+/// where the prediction violates the line or tree by less than this (largest `|C|/L`); the
+/// curvature pass at its start needs [`CURVATURE_BELOW`]. Measured on a lamp 10⁴ times a link
+/// on a bridle (a tree with two pins; `tests/direct.rs`, at rest): with the rescue bounded by
+/// `CURVATURE_BELOW`, one substep predicted 26 % off left Gauss–Newton alone, which diverged
+/// and never came back (3.5·10⁵ largest strain); with this bound, below 10⁻⁹. Unbounded, the
+/// rescue from predictions far off made 10⁵–10⁶ times heavier lamps worse (up to 2.8·10⁷).
+pub const RESCUE_BELOW: f64 = 1.0;
+
 /// Relative regularisation of the diagonal (keeps a taut straight chain between pins regular).
 const REGULARISATION: f64 = 1e-9;
 
@@ -503,10 +512,11 @@ impl LineSolve<'_, '_> {
     }
 
     /// The projection's Newton passes. Where `root` is given (the line is alone in its island
-    /// and has a root for the curvature elimination, see [`curvature`]) and the prediction is
-    /// within [`CURVATURE_BELOW`]: the first pass takes the constraints' curvature where the
-    /// substep began projected (not `Restarted`), and where Gauss–Newton has not converged after
-    /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over. Returns the passes taken.
+    /// and has a root for the curvature elimination, see [`curvature`]): the first pass takes
+    /// the constraints' curvature where the substep began projected (not `Restarted`) and the
+    /// prediction is within [`CURVATURE_BELOW`], and where Gauss–Newton has not converged after
+    /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over if the prediction is within
+    /// [`RESCUE_BELOW`]. Returns the passes taken.
     ///
     /// # Safety
     /// As for [`LineSolve::start`].
@@ -519,10 +529,11 @@ impl LineSolve<'_, '_> {
     ) -> u32 {
         // SAFETY: as for `start` (this function's contract).
         unsafe {
-            // (Both only where the prediction is within `CURVATURE_BELOW`: their linearisation is
-            // poor under violent motion.)
-            let root = root.filter(|_| begun.predicted < CURVATURE_BELOW);
-            let curving = root.filter(|_| self.shake && start != Start::Restarted);
+            // (Their linearisation is poor under violent motion: see the two bounds.)
+            let root = root.filter(|_| begun.predicted < RESCUE_BELOW);
+            let curving = root.filter(|_| {
+                self.shake && start != Start::Restarted && begun.predicted < CURVATURE_BELOW
+            });
             let mut passes = 0;
             let mut predicted = begun.predicted;
             match curving {

@@ -31,8 +31,10 @@
 //! elimination of the line and tree solves. Verified against the dense KKT system in
 //! `direct`'s tests. Compression (`λ > 0`) would make `E` indefinite: `μ` is clamped at zero
 //! there (Gauss–Newton for that stick). A stick out of its active set (a slack rope) has
-//! `λ = 0` and decouples its subtree. Every particle but the root must be movable (`E` would
-//! be singular below a pin).
+//! `λ = 0` and decouples its subtree. Below the root, an immovable particle (a second pin) is
+//! not eliminated: the stick to it holds its movable end alone ([`Held`]), eliminated with that
+//! end's own stick (see [`reduce`]; one such stick per particle). A particle below a pin sees it
+//! as an immovable parent.
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
@@ -108,6 +110,55 @@ pub(crate) struct Link {
     pub active: bool,
 }
 
+/// A stick from a particle to an immovable child (a second pin): its row holds the particle
+/// alone, `−n·Δx + α̃ Δλ_h = b`, and it adds `n Δλ_h` and its curvature `μ P` to the
+/// particle's equation. [`reduce`] eliminates it with the particle's own stick.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Held {
+    /// Unit direction from the particle to the immovable child.
+    pub normal: DVec3,
+    /// `μ = −λ / d`, clamped as for any link.
+    pub mu: f64,
+    /// `λ` (zero unless the stick is in the system).
+    pub lambda: f64,
+    /// `α̃`.
+    pub alpha: f64,
+    /// `b = −(C + α̃ λ)`.
+    pub b: f64,
+}
+
+impl Held {
+    /// `link` (from a movable particle to an immovable child) as a held stick; `None` out of
+    /// the system. `mass`: the movable particle's.
+    pub(crate) fn of(link: &Link, mass: f64) -> Option<Self> {
+        link.active.then(|| Self {
+            normal: link.normal,
+            mu: (-link.lambda / link.length.max(1e-12)).clamp(0.0, CURVATURE_LIMIT * mass),
+            lambda: link.lambda,
+            alpha: link.alpha,
+            b: -(link.c + link.alpha * link.lambda),
+        })
+    }
+}
+
+/// A held stick's step once its particle's are known: `Δλ_h = c0 + c1·Δx_p + c2 Δλ` (`Δx_p`
+/// the particle's parent's step, `Δλ` its own stick's).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct HeldReduced {
+    c0: f64,
+    c1: DVec3,
+    c2: f64,
+}
+
+impl HeldReduced {
+    /// `Δλ_h` (zero where not finite).
+    #[inline(always)]
+    pub(crate) fn substitute(&self, parent_dx: DVec3, d_lambda: f64) -> f64 {
+        let step = self.c0 + self.c1.dot(parent_dx) + self.c2 * d_lambda;
+        if step.is_finite() { step } else { 0.0 }
+    }
+}
+
 /// One stick reduced: `Δλ = a·Δx_p + β`, `Δx_c = v + μ G Δx_p + u (b·Δx_p)`, `b = a − μ n`.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Reduced {
@@ -134,35 +185,80 @@ impl Reduced {
     }
 }
 
-/// Reduces `link` with what the sticks below its child contribute (`below`): the stick's
-/// substitution, and what it contributes to its parent.
+/// Reduces `link` with what the sticks below its child contribute (`below`) and, if its child
+/// holds a stick to an immovable particle, that stick (`held`): the stick's substitution, what
+/// it contributes to its parent, and the held stick's substitution.
+///
+/// With a held stick `h` the child's equation gains a row: with `G' = E'⁻¹` (`E'` with `h`'s
+/// curvature), `u_h = G' n_h`, `D_h = n_h·u_h + α̃_h`, eliminating `Δλ_h` leaves
+/// `Δx_c = Ĝ rhs − u_h b_h / D_h`, `Ĝ = G' − u_h u_hᵀ / D_h`, and the reduction goes on with `Ĝ`
+/// for `G` (its update of the parent's `E` gains `μ² P u_h u_hᵀ P / D_h`).
 #[inline(always)]
-pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
+pub(crate) fn reduce(
+    link: &Link,
+    below: &Subtree,
+    held: Option<&Held>,
+) -> (Reduced, Subtree, HeldReduced) {
     let (n, lambda) = (link.normal, link.lambda);
     let mass = 1.0 / link.inverse_mass;
     let mu = (-lambda / link.length.max(1e-12)).clamp(0.0, CURVATURE_LIMIT * mass);
     // E_c = K + μ P, K = M + E_below, P = I − n nᵀ;
     // g_c = −R_c = −M (x − x̃) + λ n − Σ λ_child n_child + g_below.
-    let stiffness = Sym3::diagonal(mass) + below.e;
+    let mut stiffness = Sym3::diagonal(mass) + below.e;
+    let mut force = below.force;
+    if let Some(h) = held {
+        stiffness = stiffness + Sym3::diagonal(h.mu) + Sym3::outer(h.normal, -h.mu);
+        force += h.normal * h.lambda;
+    }
     let e = stiffness + Sym3::diagonal(mu) + Sym3::outer(n, -mu);
-    let g = lambda * n - below.force + below.g - link.offset;
+    let g = lambda * n - force + below.g - link.offset;
     // G = adj(E) / det: the two divisions below are independent of each other.
     let (adjugate, det) = e.adjugate();
-    let adj_n = adjugate * n;
-    let n_adj_n = n.dot(adj_n);
     let inverse_det = 1.0 / det;
-    // 1/D = det / (n·adj n + α̃ det), D = n·G n + α̃ (regularised).
-    let inverse_d = det / (n_adj_n * (1.0 + REGULARISATION) + link.alpha * det);
     let inverse = adjugate * inverse_det;
-    let (u, v) = (adj_n * inverse_det, inverse * g);
+    // With a held stick: Ĝ = G' − u_h u_hᵀ / D_h for G, and v shifted by −u_h b_h / D_h.
+    let (g_hat, u, v, nu, inverse_d, held_terms) = match held {
+        None => {
+            let adj_n = adjugate * n;
+            let n_adj_n = n.dot(adj_n);
+            // 1/D = det / (n·adj n + α̃ det), D = n·G n + α̃ (regularised).
+            let inverse_d = det / (n_adj_n * (1.0 + REGULARISATION) + link.alpha * det);
+            let nu = n_adj_n * inverse_det;
+            (
+                inverse,
+                adj_n * inverse_det,
+                inverse * g,
+                nu,
+                inverse_d,
+                None,
+            )
+        }
+        Some(h) => {
+            let u_h = inverse * h.normal;
+            let inverse_d_h = 1.0 / (h.normal.dot(u_h) * (1.0 + REGULARISATION) + h.alpha);
+            let g_hat = inverse + Sym3::outer(u_h, -inverse_d_h);
+            let u = g_hat * n;
+            let nu = n.dot(u);
+            let inverse_d = 1.0 / (nu * (1.0 + REGULARISATION) + link.alpha);
+            let v = g_hat * g - u_h * (h.b * inverse_d_h);
+            (g_hat, u, v, nu, inverse_d, Some((h, u_h, inverse_d_h)))
+        }
+    };
+    // Δλ_h = (b_h + u_h·(g + μ P Δx_p + n Δλ)) / D_h.
+    let held_step = held_terms.map_or(HeldReduced::default(), |(h, u_h, inverse_d_h)| {
+        HeldReduced {
+            c0: (h.b + u_h.dot(g)) * inverse_d_h,
+            c1: (u_h - n * n.dot(u_h)) * (mu * inverse_d_h),
+            c2: u_h.dot(n) * inverse_d_h,
+        }
+    });
     if !link.active {
         let reduced = Reduced {
             v,
             ..Default::default()
         };
-        return (reduced, Subtree::default());
+        return (reduced, Subtree::default(), held_step);
     }
-    let nu = n_adj_n * inverse_det;
     let q = n - (u - n * nu) * mu; // a = q / D
     let a = q * inverse_d;
     let beta = (-(link.c + link.alpha * lambda) - n.dot(v)) * inverse_d;
@@ -171,20 +267,25 @@ pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
     // (μ I − μ² G = μ G (E − μ I) = μ G (K − μ n nᵀ), and n is in P's kernel): written so, it
     // has no cancellation — the other form subtracts terms of size μ²/M to leave one of size M,
     // an error of 10⁻¹⁶ (μ/M)² of M (10⁻⁴ at μ/M = 10⁶, wrong at 10⁸). P Y P's symmetric part,
-    // Y = G K: sym(Y) − ½ (n (Y n + Yᵀ n)ᵀ + …) + (n·Y n) n nᵀ.
+    // Y = G K: sym(Y) − ½ (n (Y n + Yᵀ n)ᵀ + …) + (n·Y n) n nᵀ. With a held stick G is G' and K
+    // holds its curvature, and −μ² P (Ĝ − G') P = μ² P u_h u_hᵀ P / D_h is added.
     let y = inverse.times(stiffness);
     let (yn, ny) = (y * n, y.transpose() * n);
+    let mut e_up = (Sym3::symmetric_part(&y)
+        + Sym3::symmetric_outer(n * -0.5, yn + ny)
+        + Sym3::outer(n, n.dot(yn)))
+        * mu
+        + Sym3::outer(q, inverse_d);
+    if let Some((_, u_h, inverse_d_h)) = held_terms {
+        e_up = e_up + Sym3::outer((u_h - n * n.dot(u_h)) * mu, inverse_d_h);
+    }
     let up = Subtree {
-        e: (Sym3::symmetric_part(&y)
-            + Sym3::symmetric_outer(n * -0.5, yn + ny)
-            + Sym3::outer(n, n.dot(yn)))
-            * mu
-            + Sym3::outer(q, inverse_d),
+        e: e_up,
         g: (moved - n * n.dot(moved)) * mu - n * beta,
         force: n * lambda,
     };
     let reduced = Reduced {
-        g: inverse,
+        g: g_hat,
         mu,
         u,
         a,
@@ -192,7 +293,7 @@ pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
         v: moved,
         beta,
     };
-    (reduced, up)
+    (reduced, up, held_step)
 }
 
 /// The root's `Δx` from the sticks below it (`offset`: its `M (x − x̃)`): zero when it is

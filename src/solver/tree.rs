@@ -51,10 +51,10 @@
 //! particle held by two sticks to pins stays on lines); the particles below a pin see it as an
 //! immovable parent. Two pins joined by a path of rigid sticks pulled within 0.1 % of its
 //! length make the system singular (no exact solve holds both ends): the tree is swept for that
-//! substep, as a line is. The curvature passes ([`curvature`]) need every particle but the root
-//! movable: a tree with pins below its root keeps Gauss–Newton passes. Measured (a lamp on a
+//! substep, as a line is. The curvature and full Newton passes ([`curvature`]) hold the same
+//! sticks the same way ([`kkt::Held`]), where the root is immovable. Measured (a lamp on a
 //! bridle, `tests/direct.rs`): links within 10⁻⁹ of their lengths swinging, where lines
-//! meeting at the ring left 6.9 % (186 % under a 100× lamp).
+//! meeting at the ring left 6.9 % (186 % under a 100× lamp, 327–1362 % under 10³–10⁴× lamps).
 //!
 //! A
 //! stick torn in place or a one-sided stick out of its active set (see
@@ -85,9 +85,9 @@
 //! ```
 
 use super::direct::{
-    Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
-    SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TAUT, TOLERANCE, converges_next, in_system,
-    in_system_with, line_residual,
+    Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, RESCUE_BELOW,
+    SHAKE_CONTRACTION, SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TAUT, TOLERANCE,
+    converges_next, in_system, in_system_with, line_residual,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -457,12 +457,18 @@ impl TreeSolve<'_, '_> {
             }
             // (A projection starts with a curvature pass, and full Newton passes rescue it where
             // Gauss–Newton does not converge, where they apply: see `curvature`.)
+            // (Pins below the root are held sticks there, see `kkt::Held`: the root must then
+            // be immovable.)
+            let root_immovable = self.inverse_mass[view.particle[0] as usize] <= 0.0;
             let rescuable = self.first_round
-                && !pinned_below_root
+                && (!pinned_below_root || root_immovable)
                 && self.mirror.is_none()
-                && predicted < CURVATURE_BELOW
+                && predicted < RESCUE_BELOW
                 && curvature.len() == s.len();
             let curvature = rescuable.then_some(curvature);
+            // (The curvature pass only where the prediction is within `CURVATURE_BELOW`, the
+            // full Newton rescue within `RESCUE_BELOW`.)
+            let curving = predicted < CURVATURE_BELOW;
             let passes = if s[0].mode == LineMode::Shake {
                 let (passes, converged) =
                     self.newton(&view, s, SHAKE_PASSES, SHAKE_CONTRACTION, predicted);
@@ -471,10 +477,10 @@ impl TreeSolve<'_, '_> {
                 } else {
                     self.take_back(&view, s);
                     s[0].mode = LineMode::FellBack;
-                    passes + self.project(&view, s, curvature, f64::INFINITY)
+                    passes + self.project(&view, s, curvature, (curving, f64::INFINITY))
                 }
             } else {
-                self.project(&view, s, curvature, predicted)
+                self.project(&view, s, curvature, (curving, predicted))
             };
             for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
                 node.warm = self.lambda.get(k as usize);
@@ -496,7 +502,7 @@ impl TreeSolve<'_, '_> {
         view: &TreeView,
         s: &mut [Node],
         curvature: Option<&mut [TreeCurvature]>,
-        predicted: f64,
+        (curving, predicted): (bool, f64),
     ) -> u32 {
         // SAFETY: as for `solve` (caller).
         unsafe {
@@ -504,16 +510,17 @@ impl TreeSolve<'_, '_> {
                 return self.newton(view, s, MAX_PASSES, f64::INFINITY, predicted).0;
             };
             let mut passes = 0;
-            if self.shake {
+            let mut predicted = predicted;
+            if self.shake && curving {
                 self.curvature_pass(view, s, curvature);
-                passes = 1;
+                (passes, predicted) = (1, f64::INFINITY);
             }
             let (taken, converged) = self.newton(
                 view,
                 s,
                 FULL_NEWTON_AFTER - passes,
                 f64::INFINITY,
-                f64::INFINITY,
+                predicted,
             );
             passes += taken;
             if !converged {
