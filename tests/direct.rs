@@ -240,9 +240,8 @@ fn rope_complementarity(solver: &Solver) -> (f64, f64) {
 }
 
 /// Rope links pull only while taut, and never push: after every step of 5 s (8 × 1, no
-/// damping) of a bridle of rope links under a 100× lamp (a tree with two pins), the slack
-/// ropes between pins (spans 70 % and 95 %) and the chain and the Y rope of rope links
-/// released from horizontal (tips 1× and 10⁴×), no slack link pulls and no
+/// damping) of the slack ropes between pins (spans 70 % and 95 %) and the chain and the Y rope
+/// of rope links released from horizontal (tips 1× and 10⁴×), no slack link pulls and no
 /// link pushes by more than 10⁻⁸ of its length (measured at most 10⁻⁹ and 0). Before the
 /// primal–dual active set: slack links pulled up to 10 % (slack rope, 70 %) and 95 % (the chain,
 /// tip 1×), links pushed up to 10 % and 55 % (the chain, tips 1× and 10⁴×) and 20× their
@@ -251,8 +250,7 @@ fn rope_complementarity(solver: &Solver) -> (f64, f64) {
 #[test]
 fn rope_links_pull_only_while_taut() {
     let config = config(0.0, true);
-    let scenes: [(&str, Solver); 7] = [
-        ("bridle, lamp 100×", as_rope(bridle(100.0, Method::Auto))),
+    let scenes: [(&str, Solver); 6] = [
         ("slack rope 70 %", slack_rope(0.7)),
         ("slack rope 95 %", slack_rope(0.95)),
         (
@@ -472,88 +470,6 @@ fn a_forked_rope_swings_unstretched() {
     }
 }
 
-/// A lamp hung from two pins 0.8 m apart by a V of ropes (32 links of 2 cm each, straight, to
-/// a ring 0.5 m below), then 30 links (0.6 m) down to the lamp, `lamp` × a link.
-fn bridle(lamp: f64, method: Method) -> Solver {
-    let mut solver = Solver::default();
-    solver.method = method;
-    let ring = DVec3::new(0.0, -0.5, 0.0);
-    let rope = |solver: &mut Solver, from: u32, to: DVec3, links: usize, w_last: f64| {
-        let start = solver.particles.position[from as usize];
-        let mut previous = from;
-        for i in 1..=links {
-            let w = if i == links { w_last } else { 1.0 };
-            let p = solver.add_particle(start + (to - start) * (i as f64 / links as f64), w);
-            solver
-                .sticks
-                .push([previous, p], 0.02, 0.0, StickKind::Equal, f64::INFINITY, 0);
-            previous = p;
-        }
-        previous
-    };
-    let [left, right] = [-0.4, 0.4].map(|x| {
-        let at = DVec3::new(x, 0.0, 0.0);
-        let pin = solver.add_particle(at, 0.0);
-        solver.pin(pin, at);
-        pin
-    });
-    let ring = rope(&mut solver, left, ring, 32, 1.0);
-    let towards_ring = ring_at(&solver, ring, right);
-    let last = rope(&mut solver, right, towards_ring, 31, 1.0);
-    solver
-        .sticks
-        .push([last, ring], 0.02, 0.0, StickKind::Equal, f64::INFINITY, 0);
-    let below = solver.particles.position[ring as usize] - DVec3::Y * 0.6;
-    rope(&mut solver, ring, below, 30, 1.0 / lamp);
-    solver.organize();
-    solver
-}
-
-/// Where the 31st of 32 equal links from `pin` to `ring` ends.
-fn ring_at(solver: &Solver, ring: u32, pin: u32) -> DVec3 {
-    let [ring, pin] = [ring, pin].map(|p| solver.particles.position[p as usize]);
-    pin + (ring - pin) * (31.0 / 32.0)
-}
-
-/// The lamp on its bridle (a tree with two pins), kicked sideways (2 cm in the first step),
-/// damping 0.5/s, 10 s: largest link strain after the first second below 10⁻⁶ (measured below
-/// 10⁻⁹), lamp 1× and 100× a link; swept 13 % and 85 %. Before a tree held pins below its
-/// root (a stick to a pin eliminated with its movable end, `solver::tree`), the island was
-/// solved as lines meeting at the ring: 6.9 % and 186 %, in 16 339 and 25 074 Newton passes
-/// instead of 9726 and 11 912.
-#[test]
-fn a_lamp_on_a_bridle_swings_unstretched() {
-    let config = config(0.5, true);
-    for lamp in [1.0, 100.0] {
-        let mut strain = [0.0; 2];
-        for (i, method) in [Method::Sweep, Method::Auto].into_iter().enumerate() {
-            let mut solver = bridle(lamp, method);
-            let last = solver.particles.len() - 1;
-            solver.particles.previous[last] -= DVec3::Z * 0.02;
-            strain[i] = (0..640)
-                .map(|n| {
-                    solver.step(&config);
-                    if n < 64 { 0.0 } else { max_strain(&solver) }
-                })
-                .fold(0.0, f64::max);
-            if method == Method::Auto {
-                println!(
-                    "bridle, lamp {lamp}×: {} Newton passes",
-                    solver.line_passes()
-                );
-                assert!(solver.islands.list[0].tree.is_some(), "solved as a tree");
-            }
-        }
-        println!(
-            "bridle, lamp {lamp}×: swept {:.2} %, tree {:.2e} %",
-            strain[0] * 100.0,
-            strain[1] * 100.0
-        );
-        assert!(strain[0] > 0.01, "the sweep stretches: {}", strain[0]);
-        assert!(strain[1] < 1e-6, "the tree: {}", strain[1]);
-    }
-}
-
 /// A weight `weight` × a link hung from two pins 0.8 m apart by a V of rope, 32 links of 2 cm
 /// either side (straight, the weight 0.5 m below the pins): one line pinned at both ends.
 fn sling(weight: f64) -> Solver {
@@ -586,118 +502,39 @@ fn sling(weight: f64) -> Solver {
     solver
 }
 
-/// Heavy loads between two pins, kicked sideways (`kick` m in the first step: 6.4 m/s for
-/// 0.1), no damping, 10 s: largest link strain after the first second below 10⁻⁶ (measured
-/// below 10⁻⁹). The sling (a line pinned at both ends), weights 10³× kicked 0.1, 10⁴× kicked
-/// 0.03, 10⁵× and 10⁶× at rest; the bridle (a tree with two pins), lamps 10³× kicked 0 and
-/// 0.03, 10⁴× at rest. The stick to the second pin is held by its movable end in the curvature
-/// and full Newton passes (`kkt::Held`); before, lines pinned at both ends and trees with pins
-/// below their root took Gauss–Newton passes only, which do not converge under such loads: the
-/// sling 130 %, 1637 %, 3251 % and 30 780 %, the bridle 67 600 %, 1.2·10⁶ % and 1.6·10⁶ % (as
-/// lines meeting at the ring before trees held pins: 327 %, 696 %, 1362 %). Heavier or harder
-/// kicked still stretch: the sling 10⁴× kicked 0.1 44×, the bridle 10⁴× kicked 0.01 1160×,
-/// 10⁵× 377× (README, Known limitations).
+/// Heavy loads between two pins: the sling (a line pinned at both ends) with weights 10³×
+/// and 10⁴× a link kicked sideways by 0.03 m in the first step (1.9 m/s), 10⁵× and 10⁶× at
+/// rest, no damping, 10 s: largest link strain over every step below 10⁻⁶ (measured below
+/// 10⁻⁹). Its last stick is held by the particle before it in the curvature and full Newton
+/// passes (`kkt::Held`); before, a line pinned at both ends took Gauss–Newton passes only,
+/// which do not converge under such loads: 1.2 %, 1700 %, 2700 % and 35 000 %. Kicked harder it still stretches while the prediction is far off (only Gauss–Newton
+/// passes run there): 10³× kicked 0.1 m (6.4 m/s) 1270 % in the first second, then below
+/// 10⁻⁹ (before: 130 % after it); 10⁴× kicked 0.1 m, 44× in the first second and up to 52×
+/// after (README, Known limitations).
 #[test]
 fn heavy_loads_between_two_pins_swing_unstretched() {
     let config = config(0.0, true);
-    let cases = [
-        ("sling", 1e3, 0.1),
-        ("sling", 1e4, 0.03),
-        ("sling", 1e5, 0.0),
-        ("sling", 1e6, 0.0),
-        ("bridle", 1e3, 0.0),
-        ("bridle", 1e3, 0.03),
-        ("bridle", 1e4, 0.0),
-    ];
-    for (name, load, kick) in cases {
-        let (mut solver, loaded) = if name == "sling" {
-            (sling(load), 32)
-        } else {
-            let solver = bridle(load, Method::Auto);
-            let last = solver.particles.len() - 1;
-            (solver, last)
-        };
-        solver.particles.previous[loaded] -= DVec3::Z * kick;
-        let worst = (0..640)
-            .map(|n| {
-                solver.step(&config);
-                if n < 64 { 0.0 } else { max_strain(&solver) }
-            })
-            .fold(0.0, f64::max);
+    for (load, kick) in [(1e3, 0.03), (1e4, 0.03), (1e5, 0.0), (1e6, 0.0)] {
+        let mut solver = sling(load);
+        assert!(solver.islands.list[0].tree.is_none(), "one line");
+        solver.particles.previous[32] -= DVec3::Z * kick;
+        let worst = largest_strain_over(&mut solver, &config, 640);
         println!(
-            "{name}, load {load:e}×, kick {kick} m: max strain {:.1e} %, {} Newton passes",
+            "sling, load {load:e}×, kick {kick} m: max strain {:.1e} %, {} Newton passes",
             worst * 100.0,
             solver.line_passes()
         );
-        assert!(
-            worst < 1e-6,
-            "{name}, load {load}, kick {kick}: strain {worst}"
-        );
+        assert!(worst < 1e-6, "load {load}, kick {kick}: strain {worst}");
     }
 }
 
-/// The bridle's right pin pulled 1.6 m further out over 16 steps (the ropes between the pins
-/// would have to stretch to twice their length), damping 0.5/s, then 10 s: the tree is swept
-/// while its path between the pins is taut (no solution holds both ends), and nothing explodes:
-/// every particle stays finite and within 5 m of the left pin, the energy stays below 1.5× its
-/// value after the pull and settles (below a tenth of it at the end). Measured: 21 066 J after
-/// the pull, at most 28 788 J (1.37×, in the first second, as the lamp swings out on its swept,
-/// stretching rope), −985 J at the end; farthest particle 4.2 m. Before, as lines meeting at
-/// the ring (the lamp's line solved exactly, the taut lines swept): 10 030 J, then up to
-/// 14 283 J (1.42×), farthest 2.4 m (5 s).
+/// A Y-shaped rope solved as a tree, then a branch tip made immovable in place (no rebuild;
+/// the Bevy layer rebuilds when it pins, this is the core on its own): the tree is swept for
+/// those substeps instead of eliminated with a singular row. Largest link strain over 1 s:
+/// measured 75 %, as swept (sweeps leave 52 % on this rope hanging from one pin); eliminating
+/// regardless left the pinned tip's stick uncorrected: 804 %.
 #[test]
-fn a_bridle_pulled_apart_stays_bounded() {
-    let config = config(0.5, true);
-    let h = config.timestep / config.substeps as f64;
-    let mut solver = bridle(100.0, Method::Auto);
-    for _ in 0..64 {
-        solver.step(&config);
-    }
-    let right = solver.pins.particle[1];
-    for i in 1..=16 {
-        solver
-            .pins
-            .set_target(1, DVec3::new(0.4 + 0.1 * i as f64, 0.0, 0.0));
-        solver.step(&config);
-    }
-    let after = energy(&solver, h);
-    let mut highest = f64::MIN;
-    let mut farthest: f64 = 0.0;
-    for _ in 0..640 {
-        solver.step(&config);
-        highest = highest.max(energy(&solver, h));
-        let left = solver.particles.position[solver.pins.particle[0] as usize];
-        farthest = solver
-            .particles
-            .position
-            .iter()
-            .map(|x| (*x - left).length())
-            .fold(farthest, f64::max);
-    }
-    let last = energy(&solver, h);
-    println!(
-        "pulled bridle: energy after {after:.0} J, highest {highest:.0} J, last {last:.0} J, farthest {farthest:.2} m"
-    );
-    assert!(solver.particles.all_finite());
-    assert_eq!(
-        solver.particles.position[right as usize],
-        DVec3::new(2.0, 0.0, 0.0)
-    );
-    assert!(farthest < 5.0, "a particle flew {farthest} m");
-    assert!(
-        highest <= 1.5 * after,
-        "the energy rose to {highest} from {after}"
-    );
-    assert!(last < 0.1 * after, "the energy did not settle: {last} J");
-}
-
-/// A Y-shaped rope solved as a tree, then a branch tip made immovable in place (no rebuild, as
-/// the Bevy layer pins a tree's particle): the stick to that pin is eliminated with its movable
-/// end (`solver::tree`). Largest link strain over 1 s below 10⁻⁶ (measured below 10⁻⁹). Before,
-/// such a tree was swept for those substeps: 75 % (and eliminating it with the pinned tip's row
-/// left out, 804 %).
-#[test]
-fn a_tree_pinned_twice_in_place_holds() {
+fn a_tree_pinned_twice_in_place_is_swept() {
     let mut solver = y_rope(1.0, DVec3::NEG_Y, Method::Auto);
     assert!(solver.islands.list[0].tree.is_some());
     let config = config(2.0, true);
@@ -712,12 +549,11 @@ fn a_tree_pinned_twice_in_place_holds() {
         worst = worst.max(max_strain(&solver));
     }
     println!(
-        "tree pinned twice in place: max strain {:.1e} %",
+        "tree pinned twice in place: max strain {:.3} %",
         worst * 100.0
     );
-    assert!(solver.islands.list[0].tree.is_some());
     assert!(solver.particles.all_finite());
-    assert!(worst < 1e-6, "max strain {worst}");
+    assert!(worst < 1.0, "max strain {worst}");
 }
 
 /// A free rope bent into an L (20 + 19 links of 1 cm), without and with a third arm from the

@@ -401,13 +401,11 @@ fn grabbing_costs_no_rebuild() {
     check_consistency(&mut app).unwrap();
 }
 
-/// Grabbing a branch tip of a rope that forks: the island is solved whole as a tree rooted at
-/// its pin, and a second pin is added in place (no rebuild; the tree's solve eliminates a
-/// stick to a pin with its movable end); the grabbed tip follows and the rope stays within
-/// 10⁻⁶ of its lengths (before, a second pin rebuilt the island as lines meeting at the fork:
-/// up to 5 % strain allowed).
+/// Grabbing a branch tip of a rope that forks: the island was solved whole as a tree rooted at
+/// its one pin, so a second pin takes a rebuild (back to lines meeting at the fork) instead of
+/// an in-place edit; the grabbed tip follows and the rope stays together.
 #[test]
-fn grabbing_a_forked_rope_pins_it_in_place() {
+fn grabbing_a_forked_rope_rebuilds_it_as_lines() {
     let mut app = app();
     let (rope, tip) = spawn(&mut app, |c| {
         let rope = RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0), 10)
@@ -435,8 +433,8 @@ fn grabbing_a_forked_rope_pins_it_in_place() {
     let grab = position(&app, tip);
     app.world_mut().entity_mut(tip).insert(Pin::at(grab));
     step(&mut app, 1);
-    assert_eq!(rebuilds(&app), before, "a second pin is added in place");
-    assert!(tree(&app), "two pins: still a tree");
+    assert_eq!(rebuilds(&app), before + 1, "a second pin rebuilds the tree");
+    assert!(!tree(&app), "two pins: lines");
     for i in 1..=10 {
         let target = grab + Vec3::X * 0.02 * i as f32;
         app.world_mut()
@@ -448,7 +446,7 @@ fn grabbing_a_forked_rope_pins_it_in_place() {
     }
     check_consistency(&mut app).unwrap();
     assert!(
-        max_strain(&mut app) < 1e-6,
+        max_strain(&mut app) < 0.05,
         "strain {}",
         max_strain(&mut app)
     );

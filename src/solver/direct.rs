@@ -63,10 +63,10 @@
 //! the start of a substep (an edited rest length, a spawn) are first corrected on the start
 //! positions too, so the correction does not become velocity (a free L-shaped rope whose links
 //! are shortened by 10 %: 0 instead of 2.4 m/s, `tests/direct.rs`). Not where lines meet at
-//! forks (trees with many pins, meshes forced onto lines): there the block Gauss–Seidel over
+//! forks (trees with several pins, meshes forced onto lines): there the block Gauss–Seidel over
 //! lines leaves such violations every substep, and lines correcting one shared particle's start
 //! position in turn fed each other's errors (a Y-shaped rope stretched 809 % instead of 22 %).
-//! Trees with up to nine pins are solved whole instead (see [`tree`](super::tree)).
+//! Trees with at most one pin are solved whole instead (see [`tree`](super::tree)).
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
@@ -126,15 +126,6 @@ pub const SHAKE_CONTRACTION: f64 = 0.1;
 /// kilometre (`tests/hard_cases.rs`) kept 60–680 J whirling instead of settling at 6 J
 /// without this bound; the whipping chains of the report stay below it.
 pub const CURVATURE_BELOW: f64 = 0.1;
-
-/// Full Newton passes rescue a projection whose Gauss–Newton passes have not converged only
-/// where the prediction violates the line or tree by less than this (largest `|C|/L`); the
-/// curvature pass at its start needs [`CURVATURE_BELOW`]. Measured on a lamp 10⁴ times a link
-/// on a bridle (a tree with two pins; `tests/direct.rs`, at rest): with the rescue bounded by
-/// `CURVATURE_BELOW`, one substep predicted 26 % off left Gauss–Newton alone, which diverged
-/// and never came back (3.5·10⁵ largest strain); with this bound, below 10⁻⁹. Unbounded, the
-/// rescue from predictions far off made 10⁵–10⁶ times heavier lamps worse (up to 2.8·10⁷).
-pub const RESCUE_BELOW: f64 = 1.0;
 
 /// Relative regularisation of the diagonal (keeps a taut straight chain between pins regular).
 const REGULARISATION: f64 = 1e-9;
@@ -226,7 +217,7 @@ pub(crate) enum LineMode {
 
 /// A rigid segment between two immovable particles counts as taut (and is swept) when the
 /// particles are this close to its full length (relative).
-pub(crate) const TAUT: f64 = 1e-3;
+const TAUT: f64 = 1e-3;
 
 /// Start-of-substep violations (`|C|/L`) above this are corrected without adding velocity (see
 /// [`LineSolve::stabilise_start`]).
@@ -512,11 +503,10 @@ impl LineSolve<'_, '_> {
     }
 
     /// The projection's Newton passes. Where `root` is given (the line is alone in its island
-    /// and has a root for the curvature elimination, see [`curvature`]): the first pass takes
-    /// the constraints' curvature where the substep began projected (not `Restarted`) and the
-    /// prediction is within [`CURVATURE_BELOW`], and where Gauss–Newton has not converged after
-    /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over if the prediction is within
-    /// [`RESCUE_BELOW`]. Returns the passes taken.
+    /// and has a root for the curvature elimination, see [`curvature`]) and the prediction is
+    /// within [`CURVATURE_BELOW`]: the first pass takes the constraints' curvature where the
+    /// substep began projected (not `Restarted`), and where Gauss–Newton has not converged after
+    /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over. Returns the passes taken.
     ///
     /// # Safety
     /// As for [`LineSolve::start`].
@@ -529,11 +519,10 @@ impl LineSolve<'_, '_> {
     ) -> u32 {
         // SAFETY: as for `start` (this function's contract).
         unsafe {
-            // (Their linearisation is poor under violent motion: see the two bounds.)
-            let root = root.filter(|_| begun.predicted < RESCUE_BELOW);
-            let curving = root.filter(|_| {
-                self.shake && start != Start::Restarted && begun.predicted < CURVATURE_BELOW
-            });
+            // (Both only where the prediction is within `CURVATURE_BELOW`: their linearisation is
+            // poor under violent motion.)
+            let root = root.filter(|_| begun.predicted < CURVATURE_BELOW);
+            let curving = root.filter(|_| self.shake && start != Start::Restarted);
             let mut passes = 0;
             let mut predicted = begun.predicted;
             match curving {

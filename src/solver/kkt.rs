@@ -31,10 +31,9 @@
 //! elimination of the line and tree solves. Verified against the dense KKT system in
 //! `direct`'s tests. Compression (`λ > 0`) would make `E` indefinite: `μ` is clamped at zero
 //! there (Gauss–Newton for that stick). A stick out of its active set (a slack rope) has
-//! `λ = 0` and decouples its subtree. Below the root, an immovable particle (a second pin) is
-//! not eliminated: the stick to it holds its movable end alone ([`Held`]), eliminated with that
-//! end's own stick (see [`reduce`]; one such stick per particle). A particle below a pin sees it
-//! as an immovable parent.
+//! `λ = 0` and decouples its subtree. Below the root, an immovable particle (the second pin of
+//! a line pinned at both ends) is not eliminated: the stick to it holds its movable end alone
+//! ([`Held`]), eliminated with that end's own stick (see [`reduce`]).
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};

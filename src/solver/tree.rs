@@ -35,28 +35,11 @@
 //! ([`curvature`]): a Y rope with 1000× heavier tips swinging takes 7112 passes in 5 s instead
 //! of 28 707.
 //!
-//! # More pins
-//! A tree may hold up to [`MAX_PINS_BELOW_ROOT`] immovable particles besides its root (a lamp
-//! hung from two pins by a V of ropes; a pin added in place). An immovable child `c` does not
-//! move, so its stick's row holds its parent alone: `m·Δx_p + α̃ Δλ_c = b` with `m = −s_c n`,
-//! and `Δλ_c` moves the parent by `q = −w_p s_c r`. The parent eliminates it with its own
-//! equation ([`Node::eliminate_pinned`]): with `(u, v) = A⁻¹ (w s r, g)` as above and
-//! `z = A⁻¹ q`, `D = m·z + α̃`,
+//! A particle made immovable in place below the root (a pin added without a rebuild; the Bevy
+//! layer rebuilds then) would make the system singular: such a tree is swept for the substep.
 //!
-//! ```text
-//! Δλ_c = γ Δλ_k + δ,   γ = −m·u / D,   δ = (b − m·v) / D,   (u, v) += z (γ, δ)
-//! ```
-//!
-//! (`k` the parent's own stick; at the root, `Δλ_c = δ`). One such child per particle (a
-//! particle held by two sticks to pins stays on lines); the particles below a pin see it as an
-//! immovable parent. Two pins joined by a path of rigid sticks pulled within 0.1 % of its
-//! length make the system singular (no exact solve holds both ends): the tree is swept for that
-//! substep, as a line is. The curvature and full Newton passes ([`curvature`]) hold the same
-//! sticks the same way ([`kkt::Held`]), where the root is immovable. Measured (a lamp on a
-//! bridle, `tests/direct.rs`): links within 10⁻⁹ of their lengths swinging, where lines
-//! meeting at the ring left 6.9 % (186 % under a 100× lamp, 327–1362 % under 10³–10⁴× lamps).
-//!
-//! A
+//! Trees with more than one immovable particle stay on lines (two pins make the system
+//! singular when the path between them is taut, which the line solve detects and sweeps). A
 //! stick torn in place or a one-sided stick out of its active set (see
 //! [`in_system_with`](super::direct::in_system_with)) is a row with `Δλ = −λ` (released): its
 //! subtree moves on its own.
@@ -85,9 +68,9 @@
 //! ```
 
 use super::direct::{
-    Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, RESCUE_BELOW,
-    SHAKE_CONTRACTION, SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TAUT, TOLERANCE,
-    converges_next, in_system, in_system_with, line_residual,
+    Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
+    SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next, in_system,
+    in_system_with, line_residual,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -97,8 +80,6 @@ use glam::{DMat3, DVec3};
 use std::ops::Range;
 
 mod curvature;
-#[cfg(test)]
-mod tests;
 pub(crate) use curvature::TreeCurvature;
 
 /// Relative regularisation of `D_k` (as the line solve's diagonal).
@@ -106,10 +87,6 @@ const REGULARISATION: f64 = 1e-9;
 
 /// No parent (the root's parent stick and node).
 const NONE: u32 = u32::MAX;
-
-/// A tree holds at most this many immovable particles besides its root (more stay on lines:
-/// finding a taut path between two of them costs a walk per pair each substep).
-pub const MAX_PINS_BELOW_ROOT: usize = 8;
 
 /// One tree: a range of nodes in [`TreeSet`], the root first, every node after its parent.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -158,9 +135,9 @@ impl TreeSet {
     }
 }
 
-/// Roots a tree at the island's first immovable particle and appends its nodes to `set`; `None`
-/// when the island should stay on lines: no fork (a chain), more than [`MAX_PINS_BELOW_ROOT`]
-/// other immovable particles or two held by sticks to one particle, or not connected. `queue` and `seen` are scratch (`seen` as long as the particles, all
+/// Roots a tree at the island's immovable particle and appends its nodes to `set`; `None` when
+/// the island should stay on lines: no fork (a chain), more than one immovable particle, or
+/// not connected. `queue` and `seen` are scratch (`seen` as long as the particles, all
 /// `false`, left so).
 pub(crate) fn build(
     set: &mut TreeSet,
@@ -174,7 +151,7 @@ pub(crate) fn build(
         .clone()
         .filter(|&p| particles.inverse_mass[p as usize] <= 0.0);
     let root = immovable.next().unwrap_or(island_particles.start);
-    if !fork || immovable.count() > MAX_PINS_BELOW_ROOT {
+    if !fork || immovable.next().is_some() {
         return None;
     }
     seen.resize(particles.len(), false);
@@ -204,11 +181,7 @@ pub(crate) fn build(
     for &p in queue.iter() {
         seen[p as usize] = false;
     }
-    let immovable = |t: usize| particles.inverse_mass[set.particle[start + t] as usize] <= 0.0;
-    let parent = |t: usize| set.parent[start + t] as usize - start;
-    if queue.len() != island_particles.len()
-        || held_twice(set.particle.len() - start, parent, immovable)
-    {
+    if queue.len() != island_particles.len() {
         set.particle.truncate(start);
         set.stick.truncate(start);
         set.parent.truncate(start);
@@ -218,22 +191,6 @@ pub(crate) fn build(
         nodes: start as u32..set.particle.len() as u32,
     });
     Some(set.trees.len() as u32 - 1)
-}
-
-/// Whether two immovable nodes of `nodes` hang from the same movable parent (a particle held by
-/// two sticks to pins: the tree solve eliminates one such stick per particle; such a tree stays
-/// on lines, or is swept where pins added in place make one).
-/// Nodes are numbered from 0 (the root) to `nodes`; `parent` of every other node.
-fn held_twice(
-    nodes: usize,
-    parent: impl Fn(usize) -> usize,
-    immovable: impl Fn(usize) -> bool,
-) -> bool {
-    let held = |t: usize| {
-        let p = parent(t);
-        (immovable(t) && !immovable(p)).then_some(p)
-    };
-    (1..nodes).any(|a| held(a).is_some_and(|p| (a + 1..nodes).any(|b| held(b) == Some(p))))
 }
 
 /// Per node scratch, indexed like the node arrays of [`TreeSet`] (stick: the node's parent
@@ -263,20 +220,6 @@ pub(crate) struct Node {
     warm: f64,
     /// At a tree's root: how the tree is solved this substep.
     mode: LineMode,
-    /// Depth, rest length from the root and sticks on the way that can stretch (compliant or
-    /// struts) — to find a taut path between two immovable particles.
-    depth: u32,
-    soft_to_root: u32,
-    rest_to_root: f64,
-    /// An immovable child held by its stick (a second pin), eliminated with this node (see
-    /// [`Node::eliminate_pinned`]); [`NONE`] when there is none. Until then that child's `u`,
-    /// `v`, `beta` hold its stick's pull on this node, its row's `Δx` coefficient and right
-    /// side.
-    pinned_child: u32,
-    /// `Δλ_k = a_k·Δx_p + γ_k Δλ_p + β_k`: `γ` is non-zero for an immovable child only, whose
-    /// stick holds its parent `p`, moved by `Δλ_p` (its own parent stick's step, `step`).
-    gamma: f64,
-    step: f64,
 }
 
 impl Default for Node {
@@ -296,12 +239,6 @@ impl Default for Node {
             dx: DVec3::ZERO,
             warm: 0.0,
             mode: LineMode::Project,
-            depth: 0,
-            soft_to_root: 0,
-            rest_to_root: 0.0,
-            pinned_child: NONE,
-            gamma: 0.0,
-            step: 0.0,
         }
     }
 }
@@ -311,33 +248,6 @@ impl Node {
     fn clear(&mut self) {
         self.children = 0;
         self.load = DVec3::ZERO;
-        self.pinned_child = NONE;
-    }
-
-    /// An immovable child's stick once its parent eliminated it: `Δλ = γ Δλ_p + δ`, and the
-    /// child does not move.
-    fn settle_pinned(&mut self, (gamma, delta): (f64, f64)) {
-        (self.u, self.v, self.a) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
-        (self.gamma, self.beta) = (gamma, delta);
-    }
-
-    /// With `(u, v) = A⁻¹ (w s r, g)` of this node, eliminates the multiplier of its immovable
-    /// child's stick, whose row holds this node alone: `m·Δx + α̃ Δλ_c = b`, `Δx` moved by
-    /// `q Δλ_c` — so `Δλ_c = γ Δλ_k + δ` (`k` this node's parent stick), `γ = −m·u / D`,
-    /// `δ = (b − m·v) / D`, `D = m·A⁻¹q + α̃`, and `(u, v) += A⁻¹q (γ, δ)`. Returns the new
-    /// `(u, v)` and `(γ, δ)` (zero where `D` is: nothing moves the child's stick).
-    fn eliminate_pinned(
-        &self,
-        (u, v): (DVec3, DVec3),
-        (q, m, b, alpha): (DVec3, DVec3, f64, f64),
-    ) -> ((DVec3, DVec3), (f64, f64)) {
-        let z = self.solve_pair(q, DVec3::ZERO).0;
-        let d = m.dot(z) + alpha;
-        if d == 0.0 || !d.is_finite() {
-            return ((u, v), (0.0, 0.0));
-        }
-        let (gamma, delta) = (-m.dot(u) / d, (b - m.dot(v)) / d);
-        ((u + z * gamma, v + z * delta), (gamma, delta))
     }
 
     /// Adds a child's `p aᵀ` to `A`.
@@ -430,8 +340,7 @@ impl TreeSolve<'_, '_> {
         // SAFETY: this task alone holds the tree's particles and multipliers (caller).
         unsafe {
             let mut predicted = f64::INFINITY;
-            let pinned_below_root = self.pinned_below_root(&view);
-            if self.first_round && pinned_below_root && self.taut_between_pins(&view, s) {
+            if self.first_round && self.pinned_below_root(&view) {
                 s[0].mode = LineMode::Sweep;
             } else if self.first_round {
                 // (Not right after a fallback, see [`LineMode::FellBack`].)
@@ -457,18 +366,11 @@ impl TreeSolve<'_, '_> {
             }
             // (A projection starts with a curvature pass, and full Newton passes rescue it where
             // Gauss–Newton does not converge, where they apply: see `curvature`.)
-            // (Pins below the root are held sticks there, see `kkt::Held`: the root must then
-            // be immovable.)
-            let root_immovable = self.inverse_mass[view.particle[0] as usize] <= 0.0;
             let rescuable = self.first_round
-                && (!pinned_below_root || root_immovable)
                 && self.mirror.is_none()
-                && predicted < RESCUE_BELOW
+                && predicted < CURVATURE_BELOW
                 && curvature.len() == s.len();
             let curvature = rescuable.then_some(curvature);
-            // (The curvature pass only where the prediction is within `CURVATURE_BELOW`, the
-            // full Newton rescue within `RESCUE_BELOW`.)
-            let curving = predicted < CURVATURE_BELOW;
             let passes = if s[0].mode == LineMode::Shake {
                 let (passes, converged) =
                     self.newton(&view, s, SHAKE_PASSES, SHAKE_CONTRACTION, predicted);
@@ -477,10 +379,10 @@ impl TreeSolve<'_, '_> {
                 } else {
                     self.take_back(&view, s);
                     s[0].mode = LineMode::FellBack;
-                    passes + self.project(&view, s, curvature, (curving, f64::INFINITY))
+                    passes + self.project(&view, s, curvature, f64::INFINITY)
                 }
             } else {
-                self.project(&view, s, curvature, (curving, predicted))
+                self.project(&view, s, curvature, predicted)
             };
             for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
                 node.warm = self.lambda.get(k as usize);
@@ -502,7 +404,7 @@ impl TreeSolve<'_, '_> {
         view: &TreeView,
         s: &mut [Node],
         curvature: Option<&mut [TreeCurvature]>,
-        (curving, predicted): (bool, f64),
+        predicted: f64,
     ) -> u32 {
         // SAFETY: as for `solve` (caller).
         unsafe {
@@ -510,17 +412,16 @@ impl TreeSolve<'_, '_> {
                 return self.newton(view, s, MAX_PASSES, f64::INFINITY, predicted).0;
             };
             let mut passes = 0;
-            let mut predicted = predicted;
-            if self.shake && curving {
+            if self.shake {
                 self.curvature_pass(view, s, curvature);
-                (passes, predicted) = (1, f64::INFINITY);
+                passes = 1;
             }
             let (taken, converged) = self.newton(
                 view,
                 s,
                 FULL_NEWTON_AFTER - passes,
                 f64::INFINITY,
-                predicted,
+                f64::INFINITY,
             );
             passes += taken;
             if !converged {
@@ -583,69 +484,6 @@ impl TreeSolve<'_, '_> {
         view.particle[1..]
             .iter()
             .any(|&p| self.inverse_mass[p as usize] <= 0.0)
-    }
-
-    /// Whether two immovable particles of the tree are joined by a path of rigid sticks pulled
-    /// within [`TAUT`] of its full length: the system is singular there (no exact solve can
-    /// hold both ends), and the tree is swept for the substep, as a line is. Also `true` with
-    /// more than [`MAX_PINS_BELOW_ROOT`] immovable particles below the root (pins added in
-    /// place; the check is quadratic in them). Fills the nodes' depths and rest lengths to the
-    /// root on the way.
-    fn taut_between_pins(&self, view: &TreeView, s: &mut [Node]) -> bool {
-        let immovable = |t: usize| self.inverse_mass[view.particle[t] as usize] <= 0.0;
-        (s[0].depth, s[0].soft_to_root, s[0].rest_to_root) = (0, 0, 0.0);
-        let mut pins = 0;
-        for t in 1..view.particle.len() {
-            let k = view.stick[t] as usize;
-            let parent = s[(view.parent[t] - view.offset) as usize];
-            let rigid = matches!(self.sticks.kind[k], StickKind::Equal | StickKind::AtMost)
-                && self.sticks.compliance[k] == 0.0;
-            let node = &mut s[t];
-            node.depth = parent.depth + 1;
-            node.soft_to_root = parent.soft_to_root + u32::from(!rigid);
-            node.rest_to_root = parent.rest_to_root + self.sticks.rest_length[k];
-            pins += usize::from(immovable(t));
-        }
-        if pins > MAX_PINS_BELOW_ROOT {
-            return true;
-        }
-        let parent = |t: usize| (view.parent[t] - view.offset) as usize;
-        if held_twice(view.particle.len(), parent, immovable) {
-            return true;
-        }
-        let pinned = (0..view.particle.len()).filter(|&t| immovable(t));
-        pinned.clone().any(|a| {
-            pinned
-                .clone()
-                .filter(|&b| b > a)
-                .any(|b| self.taut_path(view, s, a, b))
-        })
-    }
-
-    /// `α̃` of node `c`'s parent stick.
-    fn pinned_alpha(&self, view: &TreeView, c: usize) -> f64 {
-        self.sticks.compliance[view.stick[c] as usize] * self.inv_h2
-    }
-
-    /// Whether the path between nodes `a` and `b` is rigid and within [`TAUT`] of its length.
-    fn taut_path(&self, view: &TreeView, s: &[Node], a: usize, b: usize) -> bool {
-        let parent = |t: usize| (view.parent[t] - view.offset) as usize;
-        let (mut x, mut y) = (a, b);
-        while s[x].depth > s[y].depth {
-            x = parent(x);
-        }
-        while s[y].depth > s[x].depth {
-            y = parent(y);
-        }
-        while x != y {
-            (x, y) = (parent(x), parent(y));
-        }
-        let soft = s[a].soft_to_root + s[b].soft_to_root - 2 * s[x].soft_to_root;
-        let rest = s[a].rest_to_root + s[b].rest_to_root - 2.0 * s[x].rest_to_root;
-        let [pa, pb] = [a, b].map(|t| view.particle[t] as usize);
-        // SAFETY: the tree's particles are this task's (caller of `solve`).
-        let apart = unsafe { (self.position.get(pa) - self.position.get(pb)).length() };
-        soft == 0 && apart >= rest * (1.0 - TAUT)
     }
 
     /// One Gauss–Seidel sweep over the tree's sticks, root to leaves (no warm start after it).
@@ -890,8 +728,7 @@ impl TreeSolve<'_, '_> {
             unsafe {
                 let row = self.row(view, t);
                 let (earlier, from_t) = s.split_at_mut_unchecked(t);
-                let (node, later) = from_t.split_at_mut_unchecked(1);
-                let node = node.get_unchecked_mut(0);
+                let node = from_t.get_unchecked_mut(0);
                 let r = if shake { node.start } else { row.normal };
                 node.direction = r;
                 let w = *self
@@ -902,15 +739,6 @@ impl TreeSolve<'_, '_> {
                 } else {
                     (DVec3::ZERO, DVec3::ZERO)
                 };
-                if node.pinned_child != NONE && w > 0.0 {
-                    let c = node.pinned_child as usize;
-                    let alpha = self.pinned_alpha(view, c);
-                    let child = later.get_unchecked_mut(c - t - 1);
-                    let held = (child.u, child.v, child.beta, alpha);
-                    let (uv, gamma_delta) = node.eliminate_pinned((node.u, node.v), held);
-                    (node.u, node.v) = uv;
-                    child.settle_pinned(gamma_delta);
-                }
                 node.clear();
                 let k = row.stick;
                 let alpha = *self.sticks.compliance.get_unchecked(k) * self.inv_h2;
@@ -927,32 +755,16 @@ impl TreeSolve<'_, '_> {
                     worst = worst.max(error / rest.max(1e-12));
                 }
                 let n = row.normal * row.sign;
-                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
-                let wp = *self
-                    .inverse_mass
-                    .get_unchecked(*view.particle.get_unchecked(parent) as usize);
-                let pull = r * (wp * row.sign);
-                // An immovable child (a second pin) whose stick holds a movable parent: its
-                // multiplier is eliminated with the parent's own (`Node::eliminate_pinned`),
-                // which reads the row from here: the pull on the parent, `m = −n`, `b`.
-                if w <= 0.0 && wp > 0.0 && row.active {
-                    let parent = earlier.get_unchecked_mut(parent);
-                    if parent.pinned_child == NONE {
-                        parent.pinned_child = t as u32;
-                        (node.u, node.v, node.beta) = (-pull, -n, -residual);
-                        (node.a, node.gamma) = (DVec3::ZERO, 0.0);
-                        continue;
-                    }
-                }
-                node.gamma = 0.0;
                 let d = n.dot(node.u) * (1.0 + REGULARISATION) + alpha;
                 if !row.active {
-                    // Released: Δλ = −λ, whatever its parent does (which sees its move).
+                    // Released: Δλ = −λ, whatever its parent does (which sees its move; it
+                    // needs no pivot).
                     node.a = DVec3::ZERO;
                     node.beta = -row.lambda;
                 } else if d == 0.0 || !d.is_finite() {
-                    // (Under SHAKE the system is not symmetric and a pivot may be negative; zero
-                    // is a stick no particle of its subtree can move.)
+                    // (Under SHAKE the system is not symmetric and a pivot may be negative;
+                    // zero is a stick no particle of its subtree can move: an immovable child,
+                    // which `build` roots at, or a pin added in place.)
                     node.a = DVec3::ZERO;
                     node.beta = 0.0;
                     continue;
@@ -961,6 +773,11 @@ impl TreeSolve<'_, '_> {
                     node.beta = (-residual - n.dot(node.v)) / d;
                 }
                 // Into the parent: A_p −= w_p s_p r aᵀ, g_p += w_p s_p r β (s_p = −s_j).
+                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
+                let wp = *self
+                    .inverse_mass
+                    .get_unchecked(*view.particle.get_unchecked(parent) as usize);
+                let pull = r * (wp * row.sign);
                 let parent = earlier.get_unchecked_mut(parent);
                 parent.add_child(pull, node.a);
                 parent.load -= pull * node.beta;
@@ -977,19 +794,8 @@ impl TreeSolve<'_, '_> {
     /// As for [`TreeSolve::solve`].
     unsafe fn backward(&self, view: &TreeView, s: &mut [Node]) {
         let root = view.particle[0] as usize;
-        s[0].step = 0.0;
         s[0].dx = if self.inverse_mass[root] > 0.0 {
-            let v = s[0].solve_pair(s[0].load, DVec3::ZERO).0;
-            match s[0].pinned_child {
-                NONE => v,
-                c => {
-                    let c = c as usize;
-                    let held = (s[c].u, s[c].v, s[c].beta, self.pinned_alpha(view, c));
-                    let ((_, v), gamma_delta) = s[0].eliminate_pinned((DVec3::ZERO, v), held);
-                    s[c].settle_pinned(gamma_delta);
-                    v
-                }
-            }
+            s[0].solve_pair(s[0].load, DVec3::ZERO).0
         } else {
             DVec3::ZERO
         };
@@ -998,14 +804,10 @@ impl TreeSolve<'_, '_> {
             // `check`; the particles and multipliers are this task's).
             unsafe {
                 let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
-                let (parent_dx, parent_step) = {
-                    let parent = s.get_unchecked(parent);
-                    (parent.dx, parent.step)
-                };
+                let parent_dx = s.get_unchecked(parent).dx;
                 let node = s.get_unchecked_mut(t);
-                let step = node.a.dot(parent_dx) + node.gamma * parent_step + node.beta;
+                let step = node.a.dot(parent_dx) + node.beta;
                 let step = if step.is_finite() { step } else { 0.0 };
-                node.step = step;
                 let dx = node.u * step + node.v;
                 node.dx = if dx.is_finite() { dx } else { DVec3::ZERO };
                 let k = *view.stick.get_unchecked(t) as usize;

@@ -4,7 +4,6 @@
 use super::{Problem, VerletState};
 use crate::particle::NO_SLOT;
 use crate::solver::islands::permute;
-use crate::solver::tree::MAX_PINS_BELOW_ROOT;
 use crate::solver::{IslandSettings, Islands, StickKind};
 use crate::{AngleConstraint, IslandOverride, Particle, Pin, Stick};
 use bevy::ecs::entity::{Entities, EntityHashMap};
@@ -459,15 +458,12 @@ impl VerletState {
         if self.solver.tethered.contains(&true) {
             return false;
         }
-        // A tree solved whole holds up to `MAX_PINS_BELOW_ROOT` pins besides its root's in
-        // place (its solve sweeps a substep where two hold one particle or a rigid path between
-        // two is taut); one more takes it back to lines.
+        // A tree solved whole is rooted at its one pin: a second one takes it back to lines.
         let islands = &self.solver.islands;
-        let crowded = islands.of_particle(slot).is_some_and(|k| {
-            let island = &islands.list[k];
-            island.tree.is_some() && island.pins.len() > MAX_PINS_BELOW_ROOT
-        });
-        if crowded {
+        let tree = islands
+            .of_particle(slot)
+            .is_some_and(|k| islands.list[k].tree.is_some());
+        if tree {
             return false;
         }
         let organized = self.solver.is_organized();

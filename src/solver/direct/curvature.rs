@@ -34,7 +34,7 @@
 //! subtree. A line pinned at both ends is rooted at its first end, its last stick held by the
 //! particle before it ([`kkt::Held`]): a weight 10³–10⁶ times a link hung between two pins by a
 //! V of rope swings with its links within 10⁻⁹ of their lengths, where Gauss–Newton passes
-//! alone left 130–30 780 % (`heavy_loads_between_two_pins_swing_unstretched` in
+//! alone left 1.2–35 000 % (`heavy_loads_between_two_pins_swing_unstretched` in
 //! `tests/direct.rs`). A line pinned inside keeps the usual passes.
 
 use super::super::StickKind;
