@@ -211,46 +211,24 @@ pub(crate) fn reduce(
     }
     let e = stiffness + Sym3::diagonal(mu) + Sym3::outer(n, -mu);
     let g = lambda * n - force + below.g - link.offset;
-    // G = adj(E) / det: the two divisions below are independent of each other.
+    // G = adj(E) / det.
     let (adjugate, det) = e.adjugate();
-    let inverse_det = 1.0 / det;
-    let inverse = adjugate * inverse_det;
-    // With a held stick: Ĝ = G' − u_h u_hᵀ / D_h for G, and v shifted by −u_h b_h / D_h.
-    let (g_hat, u, v, nu, inverse_d, held_terms) = match held {
-        None => {
-            let adj_n = adjugate * n;
-            let n_adj_n = n.dot(adj_n);
-            // 1/D = det / (n·adj n + α̃ det), D = n·G n + α̃ (regularised).
-            let inverse_d = det / (n_adj_n * (1.0 + REGULARISATION) + link.alpha * det);
-            let nu = n_adj_n * inverse_det;
-            (
-                inverse,
-                adj_n * inverse_det,
-                inverse * g,
-                nu,
-                inverse_d,
-                None,
-            )
-        }
+    let inverse = adjugate * (1.0 / det);
+    let (child, held) = match held {
+        None => (free_child(&adjugate, det, n, g, link.alpha), None),
         Some(h) => {
-            let u_h = inverse * h.normal;
-            let inverse_d_h = 1.0 / (h.normal.dot(u_h) * (1.0 + REGULARISATION) + h.alpha);
-            let g_hat = inverse + Sym3::outer(u_h, -inverse_d_h);
-            let u = g_hat * n;
-            let nu = n.dot(u);
-            let inverse_d = 1.0 / (nu * (1.0 + REGULARISATION) + link.alpha);
-            let v = g_hat * g - u_h * (h.b * inverse_d_h);
-            (g_hat, u, v, nu, inverse_d, Some((h, u_h, inverse_d_h)))
+            let (child, held) = held_child(&inverse, n, g, link.alpha, h);
+            (child, Some(held))
         }
     };
-    // Δλ_h = (b_h + u_h·(g + μ P Δx_p + n Δλ)) / D_h.
-    let held_step = held_terms.map_or(HeldReduced::default(), |(h, u_h, inverse_d_h)| {
-        HeldReduced {
-            c0: (h.b + u_h.dot(g)) * inverse_d_h,
-            c1: (u_h - n * n.dot(u_h)) * (mu * inverse_d_h),
-            c2: u_h.dot(n) * inverse_d_h,
-        }
-    });
+    let Child {
+        g_hat,
+        u,
+        v,
+        nu,
+        inverse_d,
+    } = child;
+    let held_step = held.map_or(HeldReduced::default(), |h| h.step(g, n, mu));
     if !link.active {
         let reduced = Reduced {
             v,
@@ -275,8 +253,8 @@ pub(crate) fn reduce(
         + Sym3::outer(n, n.dot(yn)))
         * mu
         + Sym3::outer(q, inverse_d);
-    if let Some((_, u_h, inverse_d_h)) = held_terms {
-        e_up = e_up + Sym3::outer((u_h - n * n.dot(u_h)) * mu, inverse_d_h);
+    if let Some(h) = held {
+        e_up = e_up + Sym3::outer((h.u - n * n.dot(h.u)) * mu, h.inverse_d);
     }
     let up = Subtree {
         e: e_up,
@@ -293,6 +271,77 @@ pub(crate) fn reduce(
         beta,
     };
     (reduced, up, held_step)
+}
+
+/// The child's map `Δx_c = Ĝ rhs + …` in a reduction, and what its stick's row needs.
+struct Child {
+    /// `G` (`Ĝ` with a held stick).
+    g_hat: Sym3,
+    /// `u = G n`, `v = G g` (shifted with a held stick), `ν = n·u`, `1/D`.
+    u: DVec3,
+    v: DVec3,
+    nu: f64,
+    inverse_d: f64,
+}
+
+/// [`Child`] without a held stick, from `adj(E)` and `det E`: the two divisions are
+/// independent of each other (`1/D = det / (n·adj n + α̃ det)`, `D = n·G n + α̃` regularised).
+#[inline(always)]
+fn free_child(adjugate: &Sym3, det: f64, n: DVec3, g: DVec3, alpha: f64) -> Child {
+    let inverse_det = 1.0 / det;
+    let adj_n = *adjugate * n;
+    let n_adj_n = n.dot(adj_n);
+    Child {
+        g_hat: *adjugate * inverse_det,
+        u: adj_n * inverse_det,
+        v: (*adjugate * inverse_det) * g,
+        nu: n_adj_n * inverse_det,
+        inverse_d: det / (n_adj_n * (1.0 + REGULARISATION) + alpha * det),
+    }
+}
+
+/// A held stick's elimination: `u_h = G' n_h` and `1/D_h`, and its right side `b_h`.
+#[derive(Clone, Copy)]
+struct HeldTerms {
+    u: DVec3,
+    inverse_d: f64,
+    b: f64,
+}
+
+impl HeldTerms {
+    /// `Δλ_h = (b_h + u_h·(g + μ P Δx_p + n Δλ)) / D_h`.
+    #[inline(always)]
+    fn step(&self, g: DVec3, n: DVec3, mu: f64) -> HeldReduced {
+        HeldReduced {
+            c0: (self.b + self.u.dot(g)) * self.inverse_d,
+            c1: (self.u - n * n.dot(self.u)) * (mu * self.inverse_d),
+            c2: self.u.dot(n) * self.inverse_d,
+        }
+    }
+}
+
+/// [`Child`] with held stick `h`, from `G' = E'⁻¹`: `Ĝ = G' − u_h u_hᵀ / D_h`, and `v` shifted
+/// by `−u_h b_h / D_h`.
+#[inline(always)]
+fn held_child(inverse: &Sym3, n: DVec3, g: DVec3, alpha: f64, h: &Held) -> (Child, HeldTerms) {
+    let u_h = *inverse * h.normal;
+    let inverse_d_h = 1.0 / (h.normal.dot(u_h) * (1.0 + REGULARISATION) + h.alpha);
+    let g_hat = *inverse + Sym3::outer(u_h, -inverse_d_h);
+    let u = g_hat * n;
+    let nu = n.dot(u);
+    let child = Child {
+        g_hat,
+        u,
+        v: g_hat * g - u_h * (h.b * inverse_d_h),
+        nu,
+        inverse_d: 1.0 / (nu * (1.0 + REGULARISATION) + alpha),
+    };
+    let terms = HeldTerms {
+        u: u_h,
+        inverse_d: inverse_d_h,
+        b: h.b,
+    };
+    (child, terms)
 }
 
 /// The root's `Δx` from the sticks below it (`offset`: its `M (x − x̃)`): zero when it is
