@@ -31,9 +31,8 @@
 //! elimination of the line and tree solves. Verified against the dense KKT system in
 //! `direct`'s tests. Compression (`λ > 0`) would make `E` indefinite: `μ` is clamped at zero
 //! there (Gauss–Newton for that stick). A stick out of its active set (a slack rope) has
-//! `λ = 0` and decouples its subtree. Below the root, an immovable particle (the second pin of
-//! a line pinned at both ends) is not eliminated: the stick to it holds its movable end alone
-//! ([`Held`]), eliminated with that end's own stick (see [`reduce`]).
+//! `λ = 0` and decouples its subtree. Every particle but the root must be movable (`E` would
+//! be singular below a pin).
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
@@ -109,55 +108,6 @@ pub(crate) struct Link {
     pub active: bool,
 }
 
-/// A stick from a particle to an immovable child (a second pin): its row holds the particle
-/// alone, `−n·Δx + α̃ Δλ_h = b`, and it adds `n Δλ_h` and its curvature `μ P` to the
-/// particle's equation. [`reduce`] eliminates it with the particle's own stick.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Held {
-    /// Unit direction from the particle to the immovable child.
-    pub normal: DVec3,
-    /// `μ = −λ / d`, clamped as for any link.
-    pub mu: f64,
-    /// `λ` (zero unless the stick is in the system).
-    pub lambda: f64,
-    /// `α̃`.
-    pub alpha: f64,
-    /// `b = −(C + α̃ λ)`.
-    pub b: f64,
-}
-
-impl Held {
-    /// `link` (from a movable particle to an immovable child) as a held stick; `None` out of
-    /// the system. `mass`: the movable particle's.
-    pub(crate) fn of(link: &Link, mass: f64) -> Option<Self> {
-        link.active.then(|| Self {
-            normal: link.normal,
-            mu: (-link.lambda / link.length.max(1e-12)).clamp(0.0, CURVATURE_LIMIT * mass),
-            lambda: link.lambda,
-            alpha: link.alpha,
-            b: -(link.c + link.alpha * link.lambda),
-        })
-    }
-}
-
-/// A held stick's step once its particle's are known: `Δλ_h = c0 + c1·Δx_p + c2 Δλ` (`Δx_p`
-/// the particle's parent's step, `Δλ` its own stick's).
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct HeldReduced {
-    c0: f64,
-    c1: DVec3,
-    c2: f64,
-}
-
-impl HeldReduced {
-    /// `Δλ_h` (zero where not finite).
-    #[inline(always)]
-    pub(crate) fn substitute(&self, parent_dx: DVec3, d_lambda: f64) -> f64 {
-        let step = self.c0 + self.c1.dot(parent_dx) + self.c2 * d_lambda;
-        if step.is_finite() { step } else { 0.0 }
-    }
-}
-
 /// One stick reduced: `Δλ = a·Δx_p + β`, `Δx_c = v + μ G Δx_p + u (b·Δx_p)`, `b = a − μ n`.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Reduced {
@@ -184,58 +134,35 @@ impl Reduced {
     }
 }
 
-/// Reduces `link` with what the sticks below its child contribute (`below`) and, if its child
-/// holds a stick to an immovable particle, that stick (`held`): the stick's substitution, what
-/// it contributes to its parent, and the held stick's substitution.
-///
-/// With a held stick `h` the child's equation gains a row: with `G' = E'⁻¹` (`E'` with `h`'s
-/// curvature), `u_h = G' n_h`, `D_h = n_h·u_h + α̃_h`, eliminating `Δλ_h` leaves
-/// `Δx_c = Ĝ rhs − u_h b_h / D_h`, `Ĝ = G' − u_h u_hᵀ / D_h`, and the reduction goes on with `Ĝ`
-/// for `G` (its update of the parent's `E` gains `μ² P u_h u_hᵀ P / D_h`).
+/// Reduces `link` with what the sticks below its child contribute (`below`): the stick's
+/// substitution, and what it contributes to its parent.
 #[inline(always)]
-pub(crate) fn reduce(
-    link: &Link,
-    below: &Subtree,
-    held: Option<&Held>,
-) -> (Reduced, Subtree, HeldReduced) {
+pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
     let (n, lambda) = (link.normal, link.lambda);
     let mass = 1.0 / link.inverse_mass;
     let mu = (-lambda / link.length.max(1e-12)).clamp(0.0, CURVATURE_LIMIT * mass);
     // E_c = K + μ P, K = M + E_below, P = I − n nᵀ;
     // g_c = −R_c = −M (x − x̃) + λ n − Σ λ_child n_child + g_below.
-    let mut stiffness = Sym3::diagonal(mass) + below.e;
-    let mut force = below.force;
-    if let Some(h) = held {
-        stiffness = stiffness + Sym3::diagonal(h.mu) + Sym3::outer(h.normal, -h.mu);
-        force += h.normal * h.lambda;
-    }
+    let stiffness = Sym3::diagonal(mass) + below.e;
     let e = stiffness + Sym3::diagonal(mu) + Sym3::outer(n, -mu);
-    let g = lambda * n - force + below.g - link.offset;
-    // G = adj(E) / det.
+    let g = lambda * n - below.force + below.g - link.offset;
+    // G = adj(E) / det: the two divisions below are independent of each other.
     let (adjugate, det) = e.adjugate();
-    let inverse = adjugate * (1.0 / det);
-    let (child, held) = match held {
-        None => (free_child(&adjugate, det, n, g, link.alpha), None),
-        Some(h) => {
-            let (child, held) = held_child(&inverse, n, g, link.alpha, h);
-            (child, Some(held))
-        }
-    };
-    let Child {
-        g_hat,
-        u,
-        v,
-        nu,
-        inverse_d,
-    } = child;
-    let held_step = held.map_or(HeldReduced::default(), |h| h.step(g, n, mu));
+    let adj_n = adjugate * n;
+    let n_adj_n = n.dot(adj_n);
+    let inverse_det = 1.0 / det;
+    // 1/D = det / (n·adj n + α̃ det), D = n·G n + α̃ (regularised).
+    let inverse_d = det / (n_adj_n * (1.0 + REGULARISATION) + link.alpha * det);
+    let inverse = adjugate * inverse_det;
+    let (u, v) = (adj_n * inverse_det, inverse * g);
     if !link.active {
         let reduced = Reduced {
             v,
             ..Default::default()
         };
-        return (reduced, Subtree::default(), held_step);
+        return (reduced, Subtree::default());
     }
+    let nu = n_adj_n * inverse_det;
     let q = n - (u - n * nu) * mu; // a = q / D
     let a = q * inverse_d;
     let beta = (-(link.c + link.alpha * lambda) - n.dot(v)) * inverse_d;
@@ -244,25 +171,20 @@ pub(crate) fn reduce(
     // (μ I − μ² G = μ G (E − μ I) = μ G (K − μ n nᵀ), and n is in P's kernel): written so, it
     // has no cancellation — the other form subtracts terms of size μ²/M to leave one of size M,
     // an error of 10⁻¹⁶ (μ/M)² of M (10⁻⁴ at μ/M = 10⁶, wrong at 10⁸). P Y P's symmetric part,
-    // Y = G K: sym(Y) − ½ (n (Y n + Yᵀ n)ᵀ + …) + (n·Y n) n nᵀ. With a held stick G is G' and K
-    // holds its curvature, and −μ² P (Ĝ − G') P = μ² P u_h u_hᵀ P / D_h is added.
+    // Y = G K: sym(Y) − ½ (n (Y n + Yᵀ n)ᵀ + …) + (n·Y n) n nᵀ.
     let y = inverse.times(stiffness);
     let (yn, ny) = (y * n, y.transpose() * n);
-    let mut e_up = (Sym3::symmetric_part(&y)
-        + Sym3::symmetric_outer(n * -0.5, yn + ny)
-        + Sym3::outer(n, n.dot(yn)))
-        * mu
-        + Sym3::outer(q, inverse_d);
-    if let Some(h) = held {
-        e_up = e_up + Sym3::outer((h.u - n * n.dot(h.u)) * mu, h.inverse_d);
-    }
     let up = Subtree {
-        e: e_up,
+        e: (Sym3::symmetric_part(&y)
+            + Sym3::symmetric_outer(n * -0.5, yn + ny)
+            + Sym3::outer(n, n.dot(yn)))
+            * mu
+            + Sym3::outer(q, inverse_d),
         g: (moved - n * n.dot(moved)) * mu - n * beta,
         force: n * lambda,
     };
     let reduced = Reduced {
-        g: g_hat,
+        g: inverse,
         mu,
         u,
         a,
@@ -270,78 +192,7 @@ pub(crate) fn reduce(
         v: moved,
         beta,
     };
-    (reduced, up, held_step)
-}
-
-/// The child's map `Δx_c = Ĝ rhs + …` in a reduction, and what its stick's row needs.
-struct Child {
-    /// `G` (`Ĝ` with a held stick).
-    g_hat: Sym3,
-    /// `u = G n`, `v = G g` (shifted with a held stick), `ν = n·u`, `1/D`.
-    u: DVec3,
-    v: DVec3,
-    nu: f64,
-    inverse_d: f64,
-}
-
-/// [`Child`] without a held stick, from `adj(E)` and `det E`: the two divisions are
-/// independent of each other (`1/D = det / (n·adj n + α̃ det)`, `D = n·G n + α̃` regularised).
-#[inline(always)]
-fn free_child(adjugate: &Sym3, det: f64, n: DVec3, g: DVec3, alpha: f64) -> Child {
-    let inverse_det = 1.0 / det;
-    let adj_n = *adjugate * n;
-    let n_adj_n = n.dot(adj_n);
-    Child {
-        g_hat: *adjugate * inverse_det,
-        u: adj_n * inverse_det,
-        v: (*adjugate * inverse_det) * g,
-        nu: n_adj_n * inverse_det,
-        inverse_d: det / (n_adj_n * (1.0 + REGULARISATION) + alpha * det),
-    }
-}
-
-/// A held stick's elimination: `u_h = G' n_h` and `1/D_h`, and its right side `b_h`.
-#[derive(Clone, Copy)]
-struct HeldTerms {
-    u: DVec3,
-    inverse_d: f64,
-    b: f64,
-}
-
-impl HeldTerms {
-    /// `Δλ_h = (b_h + u_h·(g + μ P Δx_p + n Δλ)) / D_h`.
-    #[inline(always)]
-    fn step(&self, g: DVec3, n: DVec3, mu: f64) -> HeldReduced {
-        HeldReduced {
-            c0: (self.b + self.u.dot(g)) * self.inverse_d,
-            c1: (self.u - n * n.dot(self.u)) * (mu * self.inverse_d),
-            c2: self.u.dot(n) * self.inverse_d,
-        }
-    }
-}
-
-/// [`Child`] with held stick `h`, from `G' = E'⁻¹`: `Ĝ = G' − u_h u_hᵀ / D_h`, and `v` shifted
-/// by `−u_h b_h / D_h`.
-#[inline(always)]
-fn held_child(inverse: &Sym3, n: DVec3, g: DVec3, alpha: f64, h: &Held) -> (Child, HeldTerms) {
-    let u_h = *inverse * h.normal;
-    let inverse_d_h = 1.0 / (h.normal.dot(u_h) * (1.0 + REGULARISATION) + h.alpha);
-    let g_hat = *inverse + Sym3::outer(u_h, -inverse_d_h);
-    let u = g_hat * n;
-    let nu = n.dot(u);
-    let child = Child {
-        g_hat,
-        u,
-        v: g_hat * g - u_h * (h.b * inverse_d_h),
-        nu,
-        inverse_d: 1.0 / (nu * (1.0 + REGULARISATION) + alpha),
-    };
-    let terms = HeldTerms {
-        u: u_h,
-        inverse_d: inverse_d_h,
-        b: h.b,
-    };
-    (child, terms)
+    (reduced, up)
 }
 
 /// The root's `Δx` from the sticks below it (`offset`: its `M (x − x̃)`): zero when it is

@@ -31,14 +31,11 @@
 //!
 //! Compression (`λ > 0`) would make `E` indefinite: `μ` is clamped at zero there (Gauss–Newton
 //! for that stick). A stick out of its active set (a slack rope) has `λ = 0` and decouples its
-//! subtree. A line pinned at both ends is rooted at its first end, its last stick held by the
-//! particle before it ([`kkt::Held`]): a weight 10³–10⁶ times a link hung between two pins by a
-//! V of rope swings with its links within 10⁻⁹ of their lengths, where Gauss–Newton passes
-//! alone left 1.2–35 000 % (`heavy_loads_between_two_pins_swing_unstretched` in
-//! `tests/direct.rs`). A line pinned inside keeps the usual passes.
+//! subtree. Only the root — the end eliminated last — may be immovable: a line pinned at both
+//! ends or inside keeps the usual passes (`E` would be singular below a pin).
 
 use super::super::StickKind;
-use super::super::kkt::{self, Held, HeldReduced, Link, Subtree};
+use super::super::kkt::{self, Link, Subtree};
 use super::{LineRef, LineSolve, in_system};
 use glam::DVec3;
 
@@ -65,9 +62,7 @@ impl LineSolve<'_, '_> {
             match (self.w(line.p(0)) > 0.0, self.w(line.p(m)) > 0.0) {
                 (true, false) => Some(Root::Last),
                 (_, true) => Some(Root::First),
-                // (Pinned at both ends: the last stick is held by its first end, see
-                // `kkt::Held`.)
-                (false, false) => (m >= 2).then_some(Root::First),
+                (false, false) => None,
             }
         }
     }
@@ -115,8 +110,8 @@ impl LineSolve<'_, '_> {
                 };
                 self.lambda.set_unchecked(s, warm);
             }
-            let (below, held) = self.curvature_forward::<false>(line, root);
-            self.curvature_backward(line, root, (below, held), DVec3::ZERO);
+            let below = self.curvature_forward::<false>(line, root);
+            self.curvature_backward(line, root, below, DVec3::ZERO);
         }
     }
 
@@ -145,8 +140,8 @@ impl LineSolve<'_, '_> {
                     };
                     self.offset_of(line, line.p(j), j)
                 };
-                let reduced = self.curvature_forward::<true>(line, root);
-                self.curvature_backward(line, root, reduced, root_offset);
+                let below = self.curvature_forward::<true>(line, root);
+                self.curvature_backward(line, root, below, root_offset);
                 if self.residual(line) <= super::TOLERANCE {
                     return (passes + 1, true);
                 }
@@ -176,21 +171,15 @@ impl LineSolve<'_, '_> {
     }
 
     /// Leaf to root: each stick reduced (see [`kkt`]); returns what the sticks contribute to
-    /// the root, and the substitution of the last stick where it is held (a line pinned at both
-    /// ends).
+    /// the root.
     ///
     /// # Safety
     /// As for [`LineSolve::curvature_pass`], and `root` from [`LineSolve::curvature_root`].
     /// With `MOVED`, the line may have moved from the prediction (`R` includes `M (x − x̃)`).
-    unsafe fn curvature_forward<const MOVED: bool>(
-        &self,
-        line: &LineRef,
-        root: Root,
-    ) -> (Subtree, HeldReduced) {
+    unsafe fn curvature_forward<const MOVED: bool>(&self, line: &LineRef, root: Root) -> Subtree {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
             let mut below = Subtree::default();
-            let (mut held, mut held_step) = (None, HeldReduced::default());
             for t in 1..=line.sticks.len() {
                 let (c, k, j) = self.curvature_link(line, root, t);
                 let s = line.s(k);
@@ -221,23 +210,13 @@ impl LineSolve<'_, '_> {
                     },
                     active: row.active,
                 };
-                if link.inverse_mass <= 0.0 {
-                    // (The immovable last end of a line pinned at both ends.)
-                    let (parent, _, _) = self.curvature_link(line, root, t + 1);
-                    held = Held::of(&link, 1.0 / self.w(parent));
-                    continue;
-                }
                 let reduced;
-                let step;
-                (reduced, below, step) = kkt::reduce(&link, &below, held.take().as_ref());
-                if t == 2 {
-                    held_step = step;
-                }
+                (reduced, below) = kkt::reduce(&link, &below);
                 self.scratch
                     .curvature
                     .set_unchecked(line.offset + k, reduced);
             }
-            (below, held_step)
+            below
         }
     }
 
@@ -249,7 +228,7 @@ impl LineSolve<'_, '_> {
         &self,
         line: &LineRef,
         root: Root,
-        (below, held): (Subtree, HeldReduced),
+        below: Subtree,
         root_offset: DVec3,
     ) {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
@@ -261,23 +240,15 @@ impl LineSolve<'_, '_> {
             };
             let mut dx = kkt::root_step(self.w(root_particle), &below, root_offset);
             self.shift(root_particle, dx);
-            // (The last stick's parent's `Δx_p` and `Δλ`, for a held last stick.)
-            let mut last = (DVec3::ZERO, 0.0);
             for t in (1..=m).rev() {
                 let (c, k, _) = self.curvature_link(line, root, t);
                 let s = line.s(k);
                 let d_lambda;
-                if self.w(c) <= 0.0 {
-                    d_lambda = held.substitute(last.0, last.1);
-                } else {
-                    let parent_dx = dx;
-                    (d_lambda, dx) = self
-                        .scratch
-                        .curvature
-                        .get_unchecked(line.offset + k)
-                        .substitute(dx);
-                    last = (parent_dx, d_lambda);
-                }
+                (d_lambda, dx) = self
+                    .scratch
+                    .curvature
+                    .get_unchecked(line.offset + k)
+                    .substitute(dx);
                 self.lambda
                     .set_unchecked(s, self.lambda.get_unchecked(s) + d_lambda);
                 self.shift(c, dx);
@@ -447,12 +418,6 @@ mod tests {
         assert_matches_dense(case([0.0, 1.0, 2.0, 0.5, 0.001]));
         assert_matches_dense(case([0.001, 1.0, 2.0, 0.5, 0.0]));
         assert_matches_dense(case([3.0, 1.0, 2.0, 0.5, 0.001]));
-        // Pinned at both ends: the last stick held by its first end (`kkt::Held`); also with
-        // that stick compliant and under compression.
-        assert_matches_dense(case([0.0, 1.0, 2.0, 0.5, 0.0]));
-        let mut held = case([0.0, 1.0, 0.001, 0.5, 0.0]);
-        (held.compliance[3], held.lambda[3]) = (1e-4, 0.4);
-        assert_matches_dense(held);
         // Rope links: the third made 0.13 long (its ends 0.1245 apart) is slack, the others
         // stretched.
         let mut ropes = case([0.0, 1.0, 2.0, 0.5, 0.001]);
@@ -467,11 +432,7 @@ mod tests {
     /// a line rooted at either end.
     #[test]
     fn full_newton_from_a_moved_iterate_reaches_the_projection() {
-        for w in [
-            [0.0, 1.0, 2.0, 0.5, 0.001],
-            [0.001, 1.0, 2.0, 0.5, 0.0],
-            [0.0, 1.0, 2.0, 0.5, 0.0],
-        ] {
+        for w in [[0.0, 1.0, 2.0, 0.5, 0.001], [0.001, 1.0, 2.0, 0.5, 0.0]] {
             let mut c = case(w);
             c.compliance = vec![0.0; 4];
             // The prediction `c.x`; the iterate moved off it, λ made up.
@@ -514,10 +475,9 @@ mod tests {
         }
     }
 
-    /// A line pinned inside keeps the usual passes (it is solved as lines either side anyway).
     #[test]
-    fn a_line_pinned_inside_keeps_the_usual_passes() {
+    fn a_line_pinned_at_both_ends_keeps_the_usual_passes() {
+        assert!(by_pass(&case([0.0, 1.0, 2.0, 0.5, 0.0])).is_none());
         assert!(by_pass(&case([1.0, 1.0, 0.0, 0.5, 1.0])).is_none());
-        assert!(by_pass(&case([0.0, 1.0, 0.0, 0.5, 0.0])).is_none());
     }
 }

@@ -128,7 +128,7 @@ impl TreeSolve<'_, '_> {
                     },
                     active: row.active,
                 };
-                let (reduced, up, _) = kkt::reduce(&link, &c.get_unchecked(t).below, None);
+                let (reduced, up) = kkt::reduce(&link, &c.get_unchecked(t).below);
                 c.get_unchecked_mut(t).reduced = reduced;
                 let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
                 c.get_unchecked_mut(parent).below.add(&up);
