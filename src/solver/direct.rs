@@ -778,7 +778,12 @@ impl LineSolve<'_, '_> {
                     // rope link: its warm start was a pull no pass took back; a slack rope
                     // between two pins gained up to 1079 J in 5 s from rest that way, see
                     // `a_slack_rope_between_pins_never_gains_energy` in `tests/direct.rs`.)
-                    let warm = if warm && in_system(kind, length - rest, rest) {
+                    // (The kept multiplier is forgotten too: a curvature pass warm-starts from it.)
+                    let in_system = in_system(kind, length - rest, rest);
+                    if !in_system {
+                        v.warm.set_unchecked(line.offset + j, 0.0);
+                    }
+                    let warm = if warm && in_system {
                         self.warm_of(s, v.warm.get_unchecked(line.offset + j))
                     } else {
                         0.0

@@ -34,9 +34,8 @@
 //! subtree. Only the root — the end eliminated last — may be immovable: a line pinned at both
 //! ends or inside keeps the usual passes (`E` would be singular below a pin).
 
-use super::super::StickKind;
 use super::super::kkt::{self, Link, Subtree};
-use super::{LineRef, LineSolve, in_system};
+use super::{LineRef, LineSolve};
 use glam::DVec3;
 
 /// Which end of a line the elimination ends at.
@@ -93,22 +92,12 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
         // contract).
         unsafe {
+            // (Only sticks in the system at the prediction: `begin` forgot the others' kept
+            // multipliers, a slack rope link's.)
             for (k, &s) in line.sticks.iter().enumerate() {
-                let s = s as usize;
-                // (As `begin` does: only a stick in the system at the prediction is
-                // warm-started, a slack rope link is not.)
-                let kind = self.kind(s);
-                let in_system = kind == StickKind::Equal || {
-                    let ends = [line.p(k), line.p(k + 1)].map(|p| self.position.get_unchecked(p));
-                    let rest = self.rest(s);
-                    in_system(kind, (ends[1] - ends[0]).length() - rest, rest)
-                };
-                let warm = if in_system {
-                    self.warm_of(s, self.scratch.warm.get_unchecked(line.offset + k))
-                } else {
-                    0.0
-                };
-                self.lambda.set_unchecked(s, warm);
+                let warm = self.scratch.warm.get_unchecked(line.offset + k);
+                self.lambda
+                    .set_unchecked(s as usize, self.warm_of(s as usize, warm));
             }
             let below = self.curvature_forward::<false>(line, root);
             self.curvature_backward(line, root, below, DVec3::ZERO);
