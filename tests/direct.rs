@@ -62,10 +62,20 @@ fn max_strain(solver: &Solver) -> f64 {
 
 /// Steps `solver` `steps` times; the largest link strain after any step.
 fn largest_strain_over(solver: &mut Solver, config: &StepConfig, steps: usize) -> f64 {
+    largest_over(solver, config, steps, max_strain)
+}
+
+/// Steps `solver` `steps` times; the largest `measure` after any step.
+fn largest_over(
+    solver: &mut Solver,
+    config: &StepConfig,
+    steps: usize,
+    measure: fn(&Solver) -> f64,
+) -> f64 {
     (0..steps)
         .map(|_| {
             solver.step(config);
-            max_strain(solver)
+            measure(solver)
         })
         .fold(0.0, f64::max)
 }
@@ -339,12 +349,7 @@ fn rope_links_under_heavy_loads_swing_unstretched() {
             let mut rigid = build(tip);
             largest_strain_over(&mut rigid, &config, 320);
             let mut rope = as_rope(build(tip));
-            let worst = (0..320)
-                .map(|_| {
-                    rope.step(&config);
-                    max_stretch(&rope)
-                })
-                .fold(0.0, f64::max);
+            let worst = largest_over(&mut rope, &config, 320, max_stretch);
             let (passes, rigid_passes) = (rope.line_passes(), rigid.line_passes());
             println!(
                 "{name} of rope links, tip {tip:e}×: max stretch {:.2e} %, {passes} Newton passes (rigid links: {rigid_passes})",

@@ -388,6 +388,9 @@ struct Row {
     active: bool,
     /// The stick's multiplier at the iterate (released, `Δλ = −λ`, where it is not active).
     lambda: f64,
+    kind: StickKind,
+    /// `w_a + w_b`.
+    inverse_masses: f64,
 }
 
 impl LineSolve<'_, '_> {
@@ -899,15 +902,17 @@ impl LineSolve<'_, '_> {
             );
             let rest = self.rest(s);
             let c = length - rest;
-            let lambda = self.lambda.get_unchecked(s);
+            let (lambda, kind) = (self.lambda.get_unchecked(s), self.kind(s));
             let inverse_masses = self.w(p) + self.w(q);
-            let active = inverse_masses > 0.0
-                && in_system_with(self.kind(s), c, lambda * inverse_masses, rest);
+            let active =
+                inverse_masses > 0.0 && in_system_with(kind, c, lambda * inverse_masses, rest);
             Row {
                 normal,
                 c,
                 active,
                 lambda,
+                kind,
+                inverse_masses,
             }
         }
     }
@@ -974,28 +979,30 @@ impl LineSolve<'_, '_> {
                 let next = (k + 1 < m).then(|| self.row(line, k + 1));
                 let r = direction(k, &row);
                 v.direction.set_unchecked(i, r);
+                let s = line.s(k);
+                let alpha = self.compliance(s) * self.inv_h2;
+                if MEASURE {
+                    let rest = self.rest(s);
+                    let error = line_residual(
+                        row.kind,
+                        [row.c, rest],
+                        row.lambda,
+                        row.inverse_masses,
+                        alpha,
+                    );
+                    worst = worst.max(error / rest.max(1e-12));
+                }
                 if !row.active {
                     // Released: Δλ = −λ, whatever the neighbours do (they see its move).
-                    if MEASURE {
-                        let s = line.s(k);
-                        let inverse_masses = self.w(line.p(k)) + self.w(line.p(k + 1));
-                        let reach = (row.lambda * inverse_masses).abs();
-                        worst = worst.max(reach / self.rest(s).max(1e-12));
-                    }
                     v.upper.set_unchecked(i, 0.0);
                     v.rhs.set_unchecked(i, -row.lambda);
                     (upper_prev, rhs_prev) = (0.0, -row.lambda);
                 } else {
-                    let s = line.s(k);
                     let wp = self.w(line.p(k));
                     let wq = self.w(line.p(k + 1));
                     let n = row.normal;
-                    let alpha = self.compliance(s) * self.inv_h2;
                     // The XPBD residual: a compliant stick is solved when C = −α̃λ, not C = 0.
                     let residual = row.c + alpha * row.lambda;
-                    if MEASURE {
-                        worst = worst.max(residual.abs() / self.rest(s).max(1e-12));
-                    }
                     let diagonal = (wp + wq) * n.dot(r) * (1.0 + REGULARISATION) + alpha;
                     // (An inactive neighbour's row is `Δλ = −λ`: its move enters through the
                     // coupling like any other.)
