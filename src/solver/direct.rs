@@ -35,7 +35,8 @@
 //! it used to wander (a whipping 1000:1 chain: 28 % fewer passes in all, 12 % less time). Where
 //! the projection has still not converged after [`FULL_NEWTON_AFTER`] passes, full Newton
 //! passes (the curvature in every pass, the residual measured against the kept prediction) take
-//! over: Gauss–Newton alone does not converge on loads 10⁵–10⁶ times a link's mass.
+//! over: Gauss–Newton alone does not converge on loads 10⁵–10⁶ times a link's mass. A line
+//! pinned at both ends takes both too, its last stick closing the loop ([`closure`]).
 //!
 //! Each substep starts from the last substep's multipliers (a warm start along the start
 //! directions: constraint forces change little between substeps; taken back if it makes the
@@ -94,6 +95,7 @@ use super::sticks::{coincident_direction, relax_stick_range};
 use super::{StickKind, lines::Line};
 use curvature::Root;
 
+mod closure;
 mod curvature;
 use glam::DVec3;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -254,6 +256,9 @@ pub(crate) struct LineScratch {
     pub tree_curvature: Vec<super::tree::TreeCurvature>,
     /// The elimination of a curvature pass (see [`curvature`]).
     pub curvature: Vec<super::kkt::Reduced>,
+    /// A unit load's part of each stick's elimination, for lines pinned at both ends (see
+    /// [`closure`]).
+    pub loads: Vec<super::kkt::Load>,
     /// Per line *particle* (indexed like [`LineSet::particles`](super::LineSet::particles)):
     /// where the substep's prediction put it, for full Newton passes (lines alone in their
     /// island only).
@@ -272,6 +277,7 @@ impl LineScratch {
         self.upper.resize(n, 0.0);
         self.rhs.resize(n, 0.0);
         self.curvature.resize(n, super::kkt::Reduced::default());
+        self.loads.resize(n, super::kkt::Load::default());
         self.predicted.resize(particles, DVec3::ZERO);
         self.warm.clear();
         self.warm.resize(n, 0.0);
@@ -293,6 +299,7 @@ pub(crate) struct LineViews<'a> {
     pub trees: SharedSlice<'a, super::tree::Node>,
     pub tree_curvature: SharedSlice<'a, super::tree::TreeCurvature>,
     pub curvature: SharedSlice<'a, super::kkt::Reduced>,
+    pub loads: SharedSlice<'a, super::kkt::Load>,
     pub predicted: SharedSlice<'a, DVec3>,
 }
 
@@ -308,6 +315,7 @@ impl<'a> LineViews<'a> {
             trees: SharedSlice::new(&mut scratch.trees),
             tree_curvature: SharedSlice::new(&mut scratch.tree_curvature),
             curvature: SharedSlice::new(&mut scratch.curvature),
+            loads: SharedSlice::new(&mut scratch.loads),
             predicted: SharedSlice::new(&mut scratch.predicted),
         }
     }
@@ -595,6 +603,7 @@ impl LineSolve<'_, '_> {
             v.upper.len(),
             v.rhs.len(),
             v.curvature.len(),
+            v.loads.len(),
         ]
         .into_iter()
         .fold(v.warm.len().min(v.mode.len()), usize::min);

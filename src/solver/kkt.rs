@@ -32,7 +32,9 @@
 //! `direct`'s tests. Compression (`λ > 0`) would make `E` indefinite: `μ` is clamped at zero
 //! there (Gauss–Newton for that stick). A stick out of its active set (a slack rope) has
 //! `λ = 0` and decouples its subtree. Every particle but the root must be movable (`E` would
-//! be singular below a pin).
+//! be singular below a pin); a stick from a second immovable particle closes a loop instead
+//! ([`closing_load`], [`closing_step`]: its multiplier by a Schur complement, with a unit load
+//! carried through the same elimination, [`Reduced::carry`]).
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
@@ -118,6 +120,15 @@ pub(crate) struct Reduced {
     b: DVec3,
     v: DVec3,
     beta: f64,
+    /// `1/D` (zero for a stick out of the system), for [`Reduced::carry`].
+    inverse_d: f64,
+}
+
+/// The part of a stick's `(v, β)` that a unit load elsewhere adds (see [`Reduced::carry`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Load {
+    v: DVec3,
+    beta: f64,
 }
 
 impl Reduced {
@@ -125,12 +136,49 @@ impl Reduced {
     /// reduction must not spread NaN).
     #[inline(always)]
     pub(crate) fn substitute(&self, parent_dx: DVec3) -> (f64, DVec3) {
-        let d_lambda = self.a.dot(parent_dx) + self.beta;
-        let dx = self.v + self.g * parent_dx * self.mu + self.u * self.b.dot(parent_dx);
+        self.substitute_with(self.v, self.beta, parent_dx)
+    }
+
+    /// As [`Reduced::substitute`], with `amount` × `load` added to the stick's own part.
+    #[inline(always)]
+    pub(crate) fn substitute_loaded(
+        &self,
+        load: &Load,
+        amount: f64,
+        parent_dx: DVec3,
+    ) -> (f64, DVec3) {
+        let (v, beta) = (self.v + load.v * amount, self.beta + load.beta * amount);
+        self.substitute_with(v, beta, parent_dx)
+    }
+
+    /// The response to a unit load alone (no stick's own part), as [`Reduced::substitute`].
+    #[inline(always)]
+    pub(crate) fn substitute_load(&self, load: &Load, parent_dx: DVec3) -> (f64, DVec3) {
+        self.substitute_with(load.v, load.beta, parent_dx)
+    }
+
+    #[inline(always)]
+    fn substitute_with(&self, v: DVec3, beta: f64, parent_dx: DVec3) -> (f64, DVec3) {
+        let d_lambda = self.a.dot(parent_dx) + beta;
+        let dx = v + self.g * parent_dx * self.mu + self.u * self.b.dot(parent_dx);
         (
             if d_lambda.is_finite() { d_lambda } else { 0.0 },
             finite_or_zero(dx),
         )
+    }
+
+    /// Carries a load through this stick, `normal` its direction: `g` is the load on the
+    /// child's equation (what the sticks below pass up, plus any applied to the child itself).
+    /// Returns the stick's part of the response and the load passed to the parent — the
+    /// homogeneous part of [`reduce`] with the same elimination (`v = G g`, `β = −n·v / D`), for
+    /// a second right-hand side such as a loop-closing multiplier's unit force.
+    #[inline(always)]
+    pub(crate) fn carry(&self, normal: DVec3, g: DVec3) -> (Load, DVec3) {
+        let v = self.g * g;
+        let beta = -normal.dot(v) * self.inverse_d;
+        let moved = v + self.u * beta;
+        let up = (moved - normal * normal.dot(moved)) * self.mu - normal * beta;
+        (Load { v: moved, beta }, up)
     }
 }
 
@@ -156,7 +204,9 @@ pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
     let inverse = adjugate * inverse_det;
     let (u, v) = (adj_n * inverse_det, inverse * g);
     if !link.active {
+        // (Its child's subtree decouples: `Δx_c = G g`, nothing passed up; `G` kept for a load.)
         let reduced = Reduced {
+            g: inverse,
             v,
             ..Default::default()
         };
@@ -191,8 +241,49 @@ pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
         b: a - n * mu,
         v: moved,
         beta,
+        inverse_d,
     };
     (reduced, up)
+}
+
+/// A loop-closing stick from an immovable particle to a movable one it holds (`link` as for
+/// [`reduce`], `normal` from the immovable end, `inverse_mass` the movable one's): what it adds
+/// to that particle's equation — its curvature `μ P` and its force `λ n` — before the
+/// particle's own stick is reduced. Its multiplier's change then follows from a Schur
+/// complement (see [`closing_step`]).
+#[inline(always)]
+pub(crate) fn closing_load(link: &Link) -> Subtree {
+    if !link.active {
+        return Subtree::default();
+    }
+    let n = link.normal;
+    let mu =
+        (-link.lambda / link.length.max(1e-12)).clamp(0.0, CURVATURE_LIMIT / link.inverse_mass);
+    Subtree {
+        e: Sym3::diagonal(mu) + Sym3::outer(n, -mu),
+        g: n * link.lambda,
+        force: DVec3::ZERO,
+    }
+}
+
+/// The closing stick's `Δλ` (a Schur complement of one row): the held particle moves by
+/// `dx + Δλ · dx_unit` (its step without the closing multiplier's change, and the response to
+/// a unit change, which pulls along `normal`), and the stick's linearised constraint
+/// `n·Δx + α̃ Δλ = −(C + α̃ λ)` must hold. Zero where the system is singular along the stick (a
+/// taut loop; the regularisation of [`reduce`] applies) or anything is not finite.
+#[inline(always)]
+pub(crate) fn closing_step(link: &Link, dx: DVec3, dx_unit: DVec3) -> f64 {
+    if !link.active {
+        return -link.lambda;
+    }
+    let n = link.normal;
+    let compliance = n.dot(dx_unit) * (1.0 + REGULARISATION) + link.alpha;
+    let step = (-(link.c + link.alpha * link.lambda) - n.dot(dx)) / compliance;
+    if compliance > 0.0 && step.is_finite() {
+        step
+    } else {
+        0.0
+    }
 }
 
 /// The root's `Δx` from the sticks below it (`offset`: its `M (x − x̃)`): zero when it is
