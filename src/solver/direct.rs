@@ -122,6 +122,35 @@ pub const SHAKE_PASSES: u32 = 3;
 /// half on the 1000:1 chain) spent all three passes before falling back.
 pub const SHAKE_CONTRACTION: f64 = 0.1;
 
+/// SHAKE is used for a line pinned at both ends only while every particle's `w Σ μ_k` is below
+/// this, summed over its sticks, `μ_k = |λ_k|/d_k` from the last substep's multipliers. A stick's tension
+/// stiffens its ends against turning it (its curvature, see [`kkt`](super::kkt)), and
+/// `2 w Σ μ` bounds `(ωh)²` of the fastest such vibration (Gershgorin; equal for a zigzag
+/// along a chain under even tension). Verlet, and so SHAKE, is stable only for `ωh < 2`, i.e.
+/// `w Σ μ < 2`; the projection, implicit along the sticks, is stable whatever the tension, so
+/// a line past the bound is projected for the substep. A rope nearly taut between two pins is
+/// past it. Measured on a V of 64 links between two
+/// pins (80–99.9 % of its length apart, weights 1–1000× a link, kicks up to 36 m/s, damping 0
+/// and 0.5/s, 8 × 1, 5 s; 512 scenes), the scenes whose energy rose above its value after the
+/// first step by more than 5 % / 20 % / 50 % of its magnitude: 60 / 31 / 14 without the bound,
+/// 32 / 17 / 5 with it — every one above 20 % left only after a kick had stretched the rope by
+/// 90 % or more — and the heavy loads between two pins of `tests/direct.rs` take a third to a
+/// quarter of the Newton passes (SHAKE had spent passes there before failing).
+///
+/// Not applied elsewhere yet, though the instability is the same (the light links next to a
+/// heavy load are past the bound). On every line it halved the Newton passes of the report's
+/// swinging 1000:1 chain (10 143 → 4822 in 5 s at 8 × 1; 37 → 31 ms, a scratch test in the
+/// test profile, interleaved with the commit before) and cut the 200-link chain's (5367 →
+/// 4024, the same time: projected substeps start with a costly curvature pass, see
+/// [`curvature`]), at a little more energy lost by swinging chains (1000:1 chain 14.6 → 20.1 %
+/// of what the fall released, 140 links 40.0 → 44.4 %) — but it changed the trajectory of the
+/// rope whose pin is teleported a kilometre (`tests/hard_cases.rs`: three substeps of the yank
+/// projected) so that, 4 s later, SHAKE's bounded energy oscillation of a still-whipping rope
+/// (±0.15 J around −4.35 J) exceeds that test's 10⁻³·m·g·L bound, which is not to be
+/// loosened. On trees a Y rope holding 10⁵× loads failed to converge with it (344× strain;
+/// a bound of 1), their projection being weaker than a line's. Pendulums never reach it.
+pub const SHAKE_STIFFNESS_BELOW: f64 = 2.0;
+
 /// A curvature pass (see [`curvature`]) runs only where the prediction violates the line by
 /// less than this (largest `|C|/L`): under violent motion its linearisation, with the last
 /// substep's multipliers, is poor. Measured: a 10-link rope whose pin is teleported a
@@ -744,6 +773,7 @@ impl LineSolve<'_, '_> {
             let mut shake = shake;
             let mut taut = false;
             let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
+            let (mut stiff, mut mu_before): (f64, f64) = (0.0, 0.0);
             let mut before = DVec3::ZERO; // s_{k−1} λ_{k−1}
             // The last immovable particle and the rest length of the rigid sticks since (∞ once a
             // stick that can stretch is passed).
@@ -795,6 +825,11 @@ impl LineSolve<'_, '_> {
                     if !in_system {
                         v.warm.set_unchecked(line.offset + j, 0.0);
                     }
+                    // (SHAKE's stability, see [`SHAKE_STIFFNESS_BELOW`]: `μ = |λ|/d` of the
+                    // sticks at each particle, from the last substep's multipliers.)
+                    let mu = v.warm.get_unchecked(line.offset + j).abs() / start_length.max(1e-12);
+                    stiff = stiff.max(w * (mu_before + mu));
+                    mu_before = mu;
                     let warm = if warm && in_system {
                         self.warm_of(s, v.warm.get_unchecked(line.offset + j))
                     } else {
@@ -820,10 +855,14 @@ impl LineSolve<'_, '_> {
                 before = after;
                 x = x_next;
             }
+            stiff = stiff.max(self.w(line.p(m)) * mu_before);
+            // (Lines pinned at both ends only, see [`SHAKE_STIFFNESS_BELOW`].)
+            let held = self.w(line.p(0)) <= 0.0 && self.w(line.p(m)) <= 0.0;
+            let stable = !held || stiff < SHAKE_STIFFNESS_BELOW;
             let mode = if taut {
                 self.take_back(line);
                 LineMode::Sweep
-            } else if shake {
+            } else if shake && stable {
                 LineMode::Shake
             } else {
                 LineMode::Project
