@@ -122,8 +122,8 @@ pub const SHAKE_PASSES: u32 = 3;
 /// half on the 1000:1 chain) spent all three passes before falling back.
 pub const SHAKE_CONTRACTION: f64 = 0.1;
 
-/// SHAKE is used for a line pinned at both ends only while every particle's `w Σ μ_k` is below
-/// this, summed over its sticks, `μ_k = |λ_k|/d_k` from the last substep's multipliers. A stick's tension
+/// SHAKE is used for a line pinned at both ends, or a tree, only while every particle's
+/// `w Σ μ_k` is below this, summed over its sticks, `μ_k = |λ_k|/d_k` from the last substep's multipliers. A stick's tension
 /// stiffens its ends against turning it (its curvature, see [`kkt`](super::kkt)), and
 /// `2 w Σ μ` bounds `(ωh)²` of the fastest such vibration (Gershgorin; equal for a zigzag
 /// along a chain under even tension). Verlet, and so SHAKE, is stable only for `ωh < 2`, i.e.
@@ -135,10 +135,15 @@ pub const SHAKE_CONTRACTION: f64 = 0.1;
 /// first step by more than 5 % / 20 % / 50 % of its magnitude: 60 / 31 / 14 without the bound,
 /// 32 / 17 / 5 with it — every one above 20 % left only after a kick had stretched the rope by
 /// 90 % or more — and the heavy loads between two pins of `tests/direct.rs` take a third to a
-/// quarter of the Newton passes (SHAKE had spent passes there before failing).
+/// quarter of the Newton passes (SHAKE had spent passes there before failing). Trees (see
+/// [`tree`](super::tree)) swinging from horizontal for 5 s: a Y rope with 1000× tips 7088 →
+/// 5293 Newton passes (79 → 66 ms, a scratch test in the test profile), 100× tips 6999 → 5435,
+/// loads 10⁴–10⁶× 12 903–27 699 → 5601–11 788, equal masses 5926 → 5764; the energy lost to
+/// projected substeps 21.8 → 27.2 % of what the fall released (1000× tips), 43.9 → 45.2 %
+/// (100×), 61.6 → 61.8 % (equal masses).
 ///
-/// Not applied elsewhere yet, though the instability is the same (the light links next to a
-/// heavy load are past the bound). On every line it halved the Newton passes of the report's
+/// Not applied to lines with a free end yet, though the instability is the same (the light
+/// links next to a heavy load are past the bound). On them it halved the Newton passes of the report's
 /// swinging 1000:1 chain (10 143 → 4822 in 5 s at 8 × 1; 37 → 31 ms, a scratch test in the
 /// test profile, interleaved with the commit before) and cut the 200-link chain's (5367 →
 /// 4024, the same time: projected substeps start with a costly curvature pass, see
@@ -147,8 +152,7 @@ pub const SHAKE_CONTRACTION: f64 = 0.1;
 /// rope whose pin is teleported a kilometre (`tests/hard_cases.rs`: three substeps of the yank
 /// projected) so that, 4 s later, SHAKE's bounded energy oscillation of a still-whipping rope
 /// (±0.15 J around −4.35 J) exceeds that test's 10⁻³·m·g·L bound, which is not to be
-/// loosened. On trees a Y rope holding 10⁵× loads failed to converge with it (344× strain;
-/// a bound of 1), their projection being weaker than a line's. Pendulums never reach it.
+/// loosened. Pendulums never reach it.
 pub const SHAKE_STIFFNESS_BELOW: f64 = 2.0;
 
 /// A curvature pass (see [`curvature`]) runs only where the prediction violates the line by

@@ -69,8 +69,8 @@
 
 use super::direct::{
     Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
-    SHAKE_MIN_COSINE, SHAKE_PASSES, STABILISE_ABOVE, TOLERANCE, converges_next, in_system,
-    in_system_with, line_residual,
+    SHAKE_MIN_COSINE, SHAKE_PASSES, SHAKE_STIFFNESS_BELOW, STABILISE_ABOVE, TOLERANCE,
+    converges_next, in_system, in_system_with, line_residual,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -220,6 +220,9 @@ pub(crate) struct Node {
     warm: f64,
     /// At a tree's root: how the tree is solved this substep.
     mode: LineMode,
+    /// `Σ μ_k = Σ |λ_k|/d_k` over the particle's sticks at the start of the substep (SHAKE's
+    /// stability, see [`SHAKE_STIFFNESS_BELOW`]).
+    stiffness: f64,
 }
 
 impl Default for Node {
@@ -239,6 +242,7 @@ impl Default for Node {
             dx: DVec3::ZERO,
             warm: 0.0,
             mode: LineMode::Project,
+            stiffness: 0.0,
         }
     }
 }
@@ -522,8 +526,10 @@ impl TreeSolve<'_, '_> {
         let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
         // SAFETY: the tree's particles and multipliers are this task's (caller).
         unsafe {
-            for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
-                let k = k as usize;
+            s[0].stiffness = 0.0;
+            for t in 1..s.len() {
+                let k = view.stick[t] as usize;
+                let node = &mut s[t];
                 let [a, b] = self.sticks.ends[k].map(|p| p as usize);
                 let (start, start_length) =
                     unit_and_length(self.previous.get(b) - self.previous.get(a), k);
@@ -542,7 +548,17 @@ impl TreeSolve<'_, '_> {
                     node.warm = 0.0;
                 }
                 node.start = start;
+                // (Each node after its parent: the parent's sum has begun.)
+                let mu = node.warm.abs() / start_length.max(1e-12);
+                node.stiffness = mu;
+                s[(view.parent[t] - view.offset) as usize].stiffness += mu;
             }
+            let stiff = s
+                .iter()
+                .zip(view.particle)
+                .map(|(node, &p)| self.inverse_mass[p as usize] * node.stiffness)
+                .fold(0.0, f64::max);
+            shake &= stiff < SHAKE_STIFFNESS_BELOW;
             s[0].mode = if shake {
                 LineMode::Shake
             } else {
