@@ -123,27 +123,38 @@ pub const SHAKE_PASSES: u32 = 3;
 pub const SHAKE_CONTRACTION: f64 = 0.1;
 
 /// SHAKE is used for a line pinned at both ends, or a tree, only while every particle's
-/// `w Σ μ_k` is below this, summed over its sticks, `μ_k = |λ_k|/d_k` from the last substep's multipliers. A stick's tension
-/// stiffens its ends against turning it (its curvature, see [`kkt`](super::kkt)), and
-/// `2 w Σ μ` bounds `(ωh)²` of the fastest such vibration (Gershgorin; equal for a zigzag
-/// along a chain under even tension). Verlet, and so SHAKE, is stable only for `ωh < 2`, i.e.
-/// `w Σ μ < 2`; the projection, implicit along the sticks, is stable whatever the tension, so
-/// a line past the bound is projected for the substep. A rope nearly taut between two pins is
-/// past it. Measured on a V of 64 links between two
-/// pins (80–99.9 % of its length apart, weights 1–1000× a link, kicks up to 36 m/s, damping 0
-/// and 0.5/s, 8 × 1, 5 s; 512 scenes), the scenes whose energy rose above its value after the
-/// first step by more than 5 % / 20 % / 50 % of its magnitude: 60 / 31 / 14 without the bound,
-/// 32 / 17 / 5 with it — every one above 20 % left only after a kick had stretched the rope by
-/// 90 % or more — and the heavy loads between two pins of `tests/direct.rs` take a third to a
-/// quarter of the Newton passes (SHAKE had spent passes there before failing). Trees (see
+/// `w Σ μ_k` is below this, summed over its sticks, `μ_k = max(−λ_k, 0)/d_k` from the last
+/// substep's multipliers and the sticks' lengths at the start of the substep
+/// ([`tension_stiffness`]). A stick's tension stiffens its ends against turning it (its
+/// curvature, see [`kkt`](super::kkt)), and `2 w Σ μ` bounds `(ωh)²` of the fastest such
+/// vibration (Gershgorin; equal for a zigzag along a chain under even tension: `ω² = 4T/(mℓ)`).
+/// Verlet, and so SHAKE, is stable only for `ωh < 2`, i.e. `w Σ μ < 2`; the projection,
+/// implicit along the sticks, is stable whatever the tension, so a line or tree past the bound
+/// is projected for the substep. 1.5 keeps a margin (`ωh < 1.73`): `μ` lags a substep, and a
+/// review saw a bound of 2.3 let six neighbouring near-taut scenes gain 65–120 %. (`λ` is zero
+/// after a swept substep and after `organize`, so such a substep takes SHAKE whatever the
+/// tension; `λ` scales with `h²`, so the bound follows a change of substep.)
+///
+/// A rope nearly taut between two pins is past it: the energy of a V of 64 links 99.8–99.9 %
+/// taut rose by 76–136 % in 5 s under SHAKE, locked at `w Σ μ = 2.00` as it did (a period-2
+/// Verlet mode, measured by a review). Measured on 512 such scenes (80–99.9 % of its length
+/// apart, weights 1–1000× a link, kicks up to 36 m/s, damping 0 and 0.5/s, 8 × 1, 5 s), the
+/// scenes whose energy rose above its value after the first step by more than 5 % / 20 % /
+/// 50 % of its magnitude: 60 / 31 / 14 without the bound, 32 / 17 / 5 with it — every one
+/// above 20 % left only after a kick had stretched the rope by 90 % or more (a bound of 1
+/// removed four more rises of 2–8 % in scenes kicked at 36 m/s, at 7 points more energy lost
+/// by a swinging equal-mass Y rope). The heavy loads between two pins of `tests/direct.rs`
+/// take 0.2–0.6× the Newton passes they took without it (SHAKE had spent passes there
+/// before failing); a 1000× rope link there stretched 1.7·10⁻⁴ without it. Trees (see
 /// [`tree`](super::tree)) swinging from horizontal for 5 s: a Y rope with 1000× tips 7088 →
-/// 5293 Newton passes (79 → 66 ms, a scratch test in the test profile), 100× tips 6999 → 5435,
-/// loads 10⁴–10⁶× 12 903–27 699 → 5601–11 788, equal masses 5926 → 5764; the energy lost to
-/// projected substeps 21.8 → 27.2 % of what the fall released (1000× tips), 43.9 → 45.2 %
-/// (100×), 61.6 → 61.8 % (equal masses).
+/// 5295 Newton passes (79 → 66 ms, a scratch test in the test profile), 100× tips 6999 → 5413,
+/// loads 10⁴–10⁶× 12 903–27 699 → 5603–11 788, equal masses 5926 → 5693; the energy lost to
+/// projected substeps 21.8 → 27.2 % of what the fall released (1000× tips), 43.9 → 45.1 %
+/// (100×), 61.6 → 65.1 % (equal masses). The report's catenary (50 links between two pins)
+/// is past it only at 1 and 2 substeps.
 ///
 /// Not applied to lines with a free end yet, though the instability is the same (the light
-/// links next to a heavy load are past the bound). On them it halved the Newton passes of the report's
+/// links next to a heavy load are past the bound). On them (at a bound of 2) it halved the Newton passes of the report's
 /// swinging 1000:1 chain (10 143 → 4822 in 5 s at 8 × 1; 37 → 31 ms, a scratch test in the
 /// test profile, interleaved with the commit before) and cut the 200-link chain's (5367 →
 /// 4024, the same time: projected substeps start with a costly curvature pass, see
@@ -153,7 +164,15 @@ pub const SHAKE_CONTRACTION: f64 = 0.1;
 /// projected) so that, 4 s later, SHAKE's bounded energy oscillation of a still-whipping rope
 /// (±0.15 J around −4.35 J) exceeds that test's 10⁻³·m·g·L bound, which is not to be
 /// loosened. Pendulums never reach it.
-pub const SHAKE_STIFFNESS_BELOW: f64 = 2.0;
+pub const SHAKE_STIFFNESS_BELOW: f64 = 1.5;
+
+/// `μ = max(−λ, 0)/d` of a stick with multiplier `λ` and length `d` (see
+/// [`SHAKE_STIFFNESS_BELOW`]): a pull stiffens its ends against turning it; a push (`λ > 0`)
+/// softens them, which cannot make SHAKE unstable this way.
+#[inline(always)]
+pub(crate) fn tension_stiffness(lambda: f64, length: f64) -> f64 {
+    (-lambda).max(0.0) / length.max(1e-12)
+}
 
 /// A curvature pass (see [`curvature`]) runs only where the prediction violates the line by
 /// less than this (largest `|C|/L`): under violent motion its linearisation, with the last
@@ -831,7 +850,7 @@ impl LineSolve<'_, '_> {
                     }
                     // (SHAKE's stability, see [`SHAKE_STIFFNESS_BELOW`]: `μ = |λ|/d` of the
                     // sticks at each particle, from the last substep's multipliers.)
-                    let mu = v.warm.get_unchecked(line.offset + j).abs() / start_length.max(1e-12);
+                    let mu = tension_stiffness(v.warm.get_unchecked(line.offset + j), start_length);
                     stiff = stiff.max(w * (mu_before + mu));
                     mu_before = mu;
                     let warm = if warm && in_system {

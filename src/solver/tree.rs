@@ -70,7 +70,7 @@
 use super::direct::{
     Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
     SHAKE_MIN_COSINE, SHAKE_PASSES, SHAKE_STIFFNESS_BELOW, STABILISE_ABOVE, TOLERANCE,
-    converges_next, in_system, in_system_with, line_residual,
+    converges_next, in_system, in_system_with, line_residual, tension_stiffness,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
@@ -549,7 +549,7 @@ impl TreeSolve<'_, '_> {
                 }
                 node.start = start;
                 // (Each node after its parent: the parent's sum has begun.)
-                let mu = node.warm.abs() / start_length.max(1e-12);
+                let mu = tension_stiffness(node.warm, start_length);
                 node.stiffness = mu;
                 s[(view.parent[t] - view.offset) as usize].stiffness += mu;
             }
