@@ -797,11 +797,14 @@ impl LineSolve<'_, '_> {
             let mut taut = false;
             let (mut predicted, mut violated): (f64, f64) = (0.0, 0.0);
             let (mut stiff, mut mu_before): (f64, f64) = (0.0, 0.0);
+            let m = line.sticks.len();
+            // (Lines pinned at both ends only, see [`SHAKE_STIFFNESS_BELOW`]; the others skip
+            // the sums.)
+            let held = self.w(line.p(0)) <= 0.0 && self.w(line.p(m)) <= 0.0;
             let mut before = DVec3::ZERO; // s_{k−1} λ_{k−1}
             // The last immovable particle and the rest length of the rigid sticks since (∞ once a
             // stick that can stretch is passed).
             let (mut anchor, mut anchor_rest): (Option<DVec3>, f64) = (None, 0.0);
-            let m = line.sticks.len();
             let mut x = self.position.get_unchecked(line.p(0));
             for j in 0..=m {
                 let p = line.p(j);
@@ -850,9 +853,12 @@ impl LineSolve<'_, '_> {
                     }
                     // (SHAKE's stability, see [`SHAKE_STIFFNESS_BELOW`]: `μ = |λ|/d` of the
                     // sticks at each particle, from the last substep's multipliers.)
-                    let mu = tension_stiffness(v.warm.get_unchecked(line.offset + j), start_length);
-                    stiff = stiff.max(w * (mu_before + mu));
-                    mu_before = mu;
+                    if held {
+                        let mu =
+                            tension_stiffness(v.warm.get_unchecked(line.offset + j), start_length);
+                        stiff = stiff.max(w * (mu_before + mu));
+                        mu_before = mu;
+                    }
                     let warm = if warm && in_system {
                         self.warm_of(s, v.warm.get_unchecked(line.offset + j))
                     } else {
@@ -878,9 +884,6 @@ impl LineSolve<'_, '_> {
                 before = after;
                 x = x_next;
             }
-            stiff = stiff.max(self.w(line.p(m)) * mu_before);
-            // (Lines pinned at both ends only, see [`SHAKE_STIFFNESS_BELOW`].)
-            let held = self.w(line.p(0)) <= 0.0 && self.w(line.p(m)) <= 0.0;
             let stable = !held || stiff < SHAKE_STIFFNESS_BELOW;
             let mode = if taut {
                 self.take_back(line);
