@@ -136,11 +136,11 @@ pub const SHAKE_CONTRACTION: f64 = 0.1;
 /// tension; `λ` scales with `h²`, so the bound follows a change of substep.)
 ///
 /// A rope nearly taut between two pins is past it: the energy of a V of 64 links 99.8–99.9 %
-/// taut rose by 76–136 % in 5 s under SHAKE, locked at `w Σ μ = 2.00` as it did (a period-2
+/// taut rose by up to 136 % in 5 s under SHAKE (`tests/direct.rs`), locked at `w Σ μ = 2.00` as it did (a period-2
 /// Verlet mode, measured by a review). Measured on 512 such scenes (80–99.9 % of its length
 /// apart, weights 1–1000× a link, kicks up to 36 m/s, damping 0 and 0.5/s, 8 × 1, 5 s), the
 /// scenes whose energy rose above its value after the first step by more than 5 % / 20 % /
-/// 50 % of its magnitude: 60 / 31 / 14 without the bound, 32 / 17 / 5 with it — every one
+/// 50 % of its magnitude: 60 / 31 / 14 without the bound, 32 / 17 / 5 with it (at 1.5) — every one
 /// above 20 % left only after a kick had stretched the rope by 90 % or more (a bound of 1
 /// removed four more rises of 2–8 % in scenes kicked at 36 m/s, at 7 points more energy lost
 /// by a swinging equal-mass Y rope). The heavy loads between two pins of `tests/direct.rs`
@@ -851,7 +851,7 @@ impl LineSolve<'_, '_> {
                     if !in_system {
                         v.warm.set_unchecked(line.offset + j, 0.0);
                     }
-                    // (SHAKE's stability, see [`SHAKE_STIFFNESS_BELOW`]: `μ = |λ|/d` of the
+                    // (SHAKE's stability, see [`SHAKE_STIFFNESS_BELOW`]: `μ = max(−λ, 0)/d` of the
                     // sticks at each particle, from the last substep's multipliers.)
                     if held {
                         let mu =

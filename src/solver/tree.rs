@@ -220,7 +220,7 @@ pub(crate) struct Node {
     warm: f64,
     /// At a tree's root: how the tree is solved this substep.
     mode: LineMode,
-    /// `Σ μ_k = Σ |λ_k|/d_k` over the particle's sticks at the start of the substep (SHAKE's
+    /// `Σ μ_k = Σ max(−λ_k, 0)/d_k` over the particle's sticks at the start of the substep (SHAKE's
     /// stability, see [`SHAKE_STIFFNESS_BELOW`]).
     stiffness: f64,
 }
@@ -515,7 +515,8 @@ impl TreeSolve<'_, '_> {
     }
 
     /// Start of the substep: start directions, the mode (SHAKE when no stick turns more than
-    /// ≈ 8°; `shake`: it may be used this substep), and the warm start along the start
+    /// ≈ 8° and no particle's tension makes it unstable, see [`SHAKE_STIFFNESS_BELOW`], decided
+    /// before the warm start; `shake`: it may be used this substep), and the warm start along the start
     /// directions (SHAKE only). Returns the largest `|C|/L` before the warm start, and the
     /// largest of a rigid stick at the start positions.
     ///
