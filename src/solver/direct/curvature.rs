@@ -33,8 +33,9 @@
 //! for that stick). A stick out of its active set (a slack rope) has `λ = 0` and decouples its
 //! subtree. Only the root — the end eliminated last — may be immovable, or both ends: the
 //! stick to the second pin then closes a loop, solved by a Schur complement
-//! ([`closure`](super::closure)). A line pinned inside keeps the usual passes (`E` would be
-//! singular below a pin).
+//! ([`closure`](super::closure)). A line pinned inside is eliminated stretch by stretch
+//! between its immovable particles, which decouple the sticks on either side of them
+//! ([`Root::Segments`]; `E` would be singular below a pin).
 
 use super::super::kkt::{self, Link, Subtree};
 use super::{LineRef, LineSolve};
@@ -48,11 +49,16 @@ pub(super) enum Root {
     /// Both ends immovable: eliminated towards the first, the last stick closing the loop (see
     /// [`closure`](super::closure)).
     Both,
+    /// Immovable particles inside the line: each stretch between them (or between one and a
+    /// free end) is eliminated on its own with its own root — an immovable particle decouples
+    /// the sticks on either side of it.
+    Segments,
 }
 
 impl LineSolve<'_, '_> {
     /// Where the curvature pass may run on `line`: every particle movable but possibly its
-    /// ends (the root, an immovable end if there is one; both, see [`Root::Both`]).
+    /// ends (the root, an immovable end if there is one; both, see [`Root::Both`]), or in
+    /// stretches between immovable particles ([`Root::Segments`]).
     ///
     /// # Safety
     /// `line` passed [`LineSolve::check`].
@@ -61,7 +67,7 @@ impl LineSolve<'_, '_> {
         unsafe {
             let m = line.sticks.len();
             if !(1..m).all(|j| self.w(line.p(j)) > 0.0) {
-                return None;
+                return Some(Root::Segments);
             }
             match (self.w(line.p(0)) > 0.0, self.w(line.p(m)) > 0.0) {
                 (true, false) => Some(Root::Last),
@@ -87,7 +93,7 @@ impl LineSolve<'_, '_> {
         unsafe {
             let m = line.sticks.len();
             match root {
-                Root::First | Root::Both => (line.p(m - t + 1), m - t, m - t + 1),
+                Root::First | Root::Both | Root::Segments => (line.p(m - t + 1), m - t, m - t + 1),
                 Root::Last => (line.p(t - 1), t - 1, t - 1),
             }
         }
@@ -109,12 +115,68 @@ impl LineSolve<'_, '_> {
                 self.lambda
                     .set_unchecked(s as usize, self.warm_of(s as usize, warm));
             }
-            if root == Root::Both {
-                self.closed_pass::<false>(line);
-                return;
+            self.newton_pass::<false>(line, root);
+        }
+    }
+
+    /// One full Newton pass over `line` with root `root` (see [`kkt`]); `MOVED` as for
+    /// [`LineSolve::curvature_forward`].
+    ///
+    /// # Safety
+    /// As for [`LineSolve::curvature_pass`] (`MOVED = false`, λ warm-started) or
+    /// [`LineSolve::full_newton`] (`MOVED = true`).
+    unsafe fn newton_pass<const MOVED: bool>(&self, line: &LineRef, root: Root) {
+        // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
+        unsafe {
+            match root {
+                Root::Both => self.closed_pass::<MOVED>(line),
+                Root::Segments => self.segment_passes::<MOVED>(line),
+                Root::First | Root::Last => {
+                    let root_offset = if MOVED {
+                        let j = if root == Root::First {
+                            0
+                        } else {
+                            line.sticks.len()
+                        };
+                        self.offset_of(line, line.p(j), j)
+                    } else {
+                        DVec3::ZERO
+                    };
+                    let below = self.curvature_forward::<MOVED>(line, root);
+                    self.curvature_backward(line, root, below, root_offset);
+                }
             }
-            let below = self.curvature_forward::<false>(line, root);
-            self.curvature_backward(line, root, below, DVec3::ZERO);
+        }
+    }
+
+    /// [`LineSolve::newton_pass`] on each stretch of `line` between its immovable particles
+    /// ([`Root::Segments`]), each with the root it takes alone.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::newton_pass`].
+    unsafe fn segment_passes<const MOVED: bool>(&self, line: &LineRef) {
+        // SAFETY: the stretches are sub-slices of `line` with their scratch offsets moved
+        // along, so every index they use is one of `line`'s (caller).
+        unsafe {
+            let m = line.sticks.len();
+            let mut start = 0;
+            for end in 1..=m {
+                if end < m && self.w(line.p(end)) > 0.0 {
+                    continue;
+                }
+                let stretch = LineRef {
+                    particles: &line.particles[start..=end],
+                    sticks: &line.sticks[start..end],
+                    offset: line.offset + start,
+                    particle_offset: line.particle_offset + start,
+                };
+                // (None only for a lone stick between two immovable particles, which no line
+                // holds.)
+                if let Some(root) = self.curvature_root(&stretch) {
+                    self.newton_pass::<MOVED>(&stretch, root);
+                }
+                start = end;
+            }
         }
     }
 
@@ -135,20 +197,7 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
             for passes in 0..budget {
-                if root == Root::Both {
-                    self.closed_pass::<true>(line);
-                } else {
-                    let root_offset = {
-                        let j = if root == Root::First {
-                            0
-                        } else {
-                            line.sticks.len()
-                        };
-                        self.offset_of(line, line.p(j), j)
-                    };
-                    let below = self.curvature_forward::<true>(line, root);
-                    self.curvature_backward(line, root, below, root_offset);
-                }
+                self.newton_pass::<true>(line, root);
                 if self.residual(line) <= super::TOLERANCE {
                     return (passes + 1, true);
                 }
@@ -261,8 +310,8 @@ impl LineSolve<'_, '_> {
         unsafe {
             let m = line.sticks.len();
             let root_particle = match root {
-                Root::First | Root::Both => line.p(0),
                 Root::Last => line.p(m),
+                _ => line.p(0),
             };
             let mut dx = kkt::root_step(self.w(root_particle), &below, root_offset);
             self.shift(root_particle, dx);
@@ -505,7 +554,7 @@ mod tests {
     /// [`closure`](super::super::closure)) takes the same step as the dense system — also where
     /// the stick to the second pin runs almost straight on from the one before it (where
     /// eliminating the two together divided by a vanishing pivot), with and without tension;
-    /// a line pinned inside keeps the usual passes.
+    /// and lines pinned inside.
     #[test]
     fn a_line_pinned_at_both_ends_takes_the_newton_step() {
         assert_matches_dense(case([0.0, 1.0, 2.0, 0.5, 0.0]));
@@ -528,6 +577,10 @@ mod tests {
                 assert_matches_dense(straight);
             }
         }
-        assert!(by_pass(&case([1.0, 1.0, 0.0, 0.5, 1.0])).is_none());
+        // Pinned inside: each stretch between the pins (or a pin and a free end) on its own.
+        assert_matches_dense(case([1.0, 1.0, 0.0, 0.5, 1.0]));
+        assert_matches_dense(case([0.0, 1.0, 0.0, 0.5, 0.0]));
+        assert_matches_dense(case([0.0, 0.001, 2.0, 0.0, 1.0]));
+        assert_matches_dense(case([1.0, 0.0, 2.0, 0.0, 0.5]));
     }
 }
