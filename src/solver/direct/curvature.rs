@@ -170,10 +170,11 @@ impl LineSolve<'_, '_> {
                     offset: line.offset + start,
                     particle_offset: line.particle_offset + start,
                 };
-                // (None only for a lone stick between two immovable particles, which no line
-                // holds.)
-                if let Some(root) = self.curvature_root(&stretch) {
-                    self.newton_pass::<MOVED>(&stretch, root);
+                match self.curvature_root(&stretch) {
+                    Some(root) => self.newton_pass::<MOVED>(&stretch, root),
+                    // A stick between two adjacent immovable particles (islands join pins too):
+                    // out of the system, released as every pass releases it.
+                    None => self.lambda.set_unchecked(line.s(start), 0.0),
                 }
                 start = end;
             }
@@ -368,8 +369,12 @@ mod tests {
         }
     }
 
-    /// Whether stick `k` is in the system (a rope link while stretched).
+    /// Whether stick `k` is in the system (a rope link while stretched; never a stick between
+    /// two immovable particles).
     fn active(c: &Case, k: usize) -> bool {
+        if c.w[k] + c.w[k + 1] <= 0.0 {
+            return false;
+        }
         let stretch = (c.x[k + 1] - c.x[k]).length() - c.rest[k];
         // (The pass's warm start: a one-sided stick's only where it can act and it is in the
         // system at the prediction; then the primal–dual rule with that multiplier.)
@@ -556,7 +561,7 @@ mod tests {
     /// eliminating the two together divided by a vanishing pivot), with and without tension;
     /// and lines pinned inside.
     #[test]
-    fn a_line_pinned_at_both_ends_takes_the_newton_step() {
+    fn lines_pinned_at_both_ends_or_inside_take_the_newton_step() {
         assert_matches_dense(case([0.0, 1.0, 2.0, 0.5, 0.0]));
         assert_matches_dense(case([0.0, 0.001, 2.0, 1.0, 0.0]));
         let mut ropes = case([0.0, 1.0, 2.0, 0.5, 0.0]);
@@ -582,5 +587,7 @@ mod tests {
         assert_matches_dense(case([0.0, 1.0, 0.0, 0.5, 0.0]));
         assert_matches_dense(case([0.0, 0.001, 2.0, 0.0, 1.0]));
         assert_matches_dense(case([1.0, 0.0, 2.0, 0.0, 0.5]));
+        // Two adjacent pins inside: the stick between them is out of the system.
+        assert_matches_dense(case([1.0, 0.0, 0.0, 0.5, 1.0]));
     }
 }
