@@ -195,30 +195,46 @@ fn sling_spanning(span: f64, weight: f64, kind: StickKind) -> Solver {
     let half = span / 2.0;
     let at = [-half, half].map(|x| DVec3::new(x, 0.0, 0.0));
     let bottom = DVec3::new(0.0, -(0.64f64 * 0.64 - half * half).max(0.0).sqrt(), 0.0);
-    let mut previous = solver.add_particle(at[0], 0.0);
-    solver.pin(previous, at[0]);
+    let first = solver.add_particle(at[0], 0.0);
+    solver.pin(first, at[0]);
+    push_v(&mut solver, first, [at[0], bottom, at[1]], weight, kind);
+    solver.organize();
+    solver
+}
+
+/// Appends a V of 64 links of 2 cm and kind `kind` from particle `from` (at `corners[0]`)
+/// down to `corners[1]` and up to a new pin at `corners[2]`, straight, with a weight
+/// `weight` × a link at the bottom; returns the new pin.
+fn push_v(
+    solver: &mut Solver,
+    from: u32,
+    corners: [DVec3; 3],
+    weight: f64,
+    kind: StickKind,
+) -> u32 {
+    let [top, bottom, end] = corners;
+    let mut previous = from;
     for i in 1..=64 {
-        let (from, to, f) = if i <= 32 {
-            (at[0], bottom, i as f64 / 32.0)
+        let (a, b, f) = if i <= 32 {
+            (top, bottom, i as f64 / 32.0)
         } else {
-            (bottom, at[1], (i - 32) as f64 / 32.0)
+            (bottom, end, (i - 32) as f64 / 32.0)
         };
         let w = match i {
             32 => 1.0 / weight,
             64 => 0.0,
             _ => 1.0,
         };
-        let p = solver.add_particle(from + (to - from) * f, w);
+        let p = solver.add_particle(a + (b - a) * f, w);
         if i == 64 {
-            solver.pin(p, to);
+            solver.pin(p, b);
         }
         solver
             .sticks
             .push([previous, p], 0.02, 0.0, kind, f64::INFINITY, 0);
         previous = p;
     }
-    solver.organize();
-    solver
+    previous
 }
 
 /// Heavy loads between two pins, the weight kicked sideways (`kick` m in the first substep of
@@ -265,28 +281,12 @@ fn clothesline(weight: f64, kind: StickKind) -> Solver {
     solver.pin(previous, DVec3::ZERO);
     for span in 0..3 {
         let x0 = 0.8 * span as f64;
-        let (a, b) = (DVec3::new(x0, 0.0, 0.0), DVec3::new(x0 + 0.8, 0.0, 0.0));
-        let bottom = DVec3::new(x0 + 0.4, -0.5, 0.0);
-        for i in 1..=64 {
-            let (from, to, f) = if i <= 32 {
-                (a, bottom, i as f64 / 32.0)
-            } else {
-                (bottom, b, (i - 32) as f64 / 32.0)
-            };
-            let w = match i {
-                32 => 1.0 / weight,
-                64 => 0.0,
-                _ => 1.0,
-            };
-            let p = solver.add_particle(from + (to - from) * f, w);
-            if i == 64 {
-                solver.pin(p, to);
-            }
-            solver
-                .sticks
-                .push([previous, p], 0.02, 0.0, kind, f64::INFINITY, 0);
-            previous = p;
-        }
+        let corners = [
+            DVec3::new(x0, 0.0, 0.0),
+            DVec3::new(x0 + 0.4, -0.5, 0.0),
+            DVec3::new(x0 + 0.8, 0.0, 0.0),
+        ];
+        previous = push_v(&mut solver, previous, corners, weight, kind);
     }
     solver.organize();
     solver
