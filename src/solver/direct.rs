@@ -1017,7 +1017,7 @@ impl LineSolve<'_, '_> {
                     inverse_masses,
                     self.compliance(s) * self.inv_h2,
                 );
-                worst = worst.max(residual / rest.max(1e-12));
+                worst = worst.max(residual);
             }
             worst
         }
@@ -1064,7 +1064,7 @@ impl LineSolve<'_, '_> {
                         row.inverse_masses,
                         alpha,
                     );
-                    worst = worst.max(error / rest.max(1e-12));
+                    worst = worst.max(error);
                 }
                 if !row.active {
                     // Released: Δλ = −λ, whatever the neighbours do (they see its move).
@@ -1205,9 +1205,9 @@ impl LineSolve<'_, '_> {
     }
 }
 
-/// A stick's share of a line's or tree's error, `[C, L]` its constraint and rest length
-/// (`|C + α̃λ|` in the system; out of it, the
-/// reach of a multiplier not yet released, `|λ| (w_a + w_b)`; zero between immovable ends).
+/// A stick's share of a line's or tree's error relative to its rest length, `[C, L]` its
+/// constraint and rest length (`|C + α̃λ|/L` in the system; out of it, the reach of a
+/// multiplier not yet released, `|λ| (w_a + w_b)/L`; zero between immovable ends).
 #[inline(always)]
 pub(crate) fn line_residual(
     kind: StickKind,
@@ -1217,13 +1217,14 @@ pub(crate) fn line_residual(
     alpha: f64,
 ) -> f64 {
     let reach = lambda * inverse_masses;
-    if inverse_masses <= 0.0 {
+    let error = if inverse_masses <= 0.0 {
         0.0
     } else if in_system_with(kind, c, reach, rest) {
         (c + alpha * lambda).abs()
     } else {
         reach.abs()
-    }
+    };
+    error / rest.max(1e-12)
 }
 
 /// Whether a Newton pass that started at error `error` likely ends below [`TOLERANCE`], the

@@ -188,7 +188,7 @@ impl Reduced {
 pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
     let (n, lambda) = (link.normal, link.lambda);
     let mass = 1.0 / link.inverse_mass;
-    let mu = (-lambda / link.length.max(1e-12)).clamp(0.0, CURVATURE_LIMIT * mass);
+    let mu = curvature_weight(link);
     // E_c = K + μ P, K = M + E_below, P = I − n nᵀ;
     // g_c = −R_c = −M (x − x̃) + λ n − Σ λ_child n_child + g_below.
     let stiffness = Sym3::diagonal(mass) + below.e;
@@ -246,6 +246,13 @@ pub(crate) fn reduce(link: &Link, below: &Subtree) -> (Reduced, Subtree) {
     (reduced, up)
 }
 
+/// `μ = −λ/d` of `link`: its tension's weight on the curvature, zero under compression and held
+/// below [`CURVATURE_LIMIT`] × the child's mass.
+#[inline(always)]
+fn curvature_weight(link: &Link) -> f64 {
+    (-link.lambda / link.length.max(1e-12)).clamp(0.0, CURVATURE_LIMIT * (1.0 / link.inverse_mass))
+}
+
 /// A loop-closing stick from an immovable particle to a movable one it holds (`link` as for
 /// [`reduce`], `normal` from the immovable end, `inverse_mass` the movable one's): what it adds
 /// to that particle's equation — its curvature `μ P` and its force `λ n` — before the
@@ -257,8 +264,7 @@ pub(crate) fn closing_load(link: &Link) -> Subtree {
         return Subtree::default();
     }
     let n = link.normal;
-    let mu =
-        (-link.lambda / link.length.max(1e-12)).clamp(0.0, CURVATURE_LIMIT / link.inverse_mass);
+    let mu = curvature_weight(link);
     Subtree {
         e: Sym3::diagonal(mu) + Sym3::outer(n, -mu),
         g: n * link.lambda,

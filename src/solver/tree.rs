@@ -723,7 +723,7 @@ impl TreeSolve<'_, '_> {
                 self.inverse_mass[a] + self.inverse_mass[b],
                 self.sticks.compliance[k] * self.inv_h2,
             );
-            worst = worst.max(residual / rest.max(1e-12));
+            worst = worst.max(residual);
         }
         worst
     }
@@ -769,7 +769,7 @@ impl TreeSolve<'_, '_> {
                         row.inverse_masses,
                         alpha,
                     );
-                    worst = worst.max(error / rest.max(1e-12));
+                    worst = worst.max(error);
                 }
                 let n = row.normal * row.sign;
                 let d = n.dot(node.u) * (1.0 + REGULARISATION) + alpha;
