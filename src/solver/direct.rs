@@ -239,7 +239,25 @@ enum Start {
     WarmLeftOut,
     /// At the prediction after SHAKE failed this substep, λ = 0.
     Restarted,
+    /// As [`Start::Restarted`], in a line tense enough for a curvature pass to pay (see
+    /// [`CURVATURE_AFTER_SHAKE_ABOVE`]).
+    RestartedTense,
 }
+
+/// After SHAKE failed in a substep, the projection that follows starts with a curvature pass
+/// (see [`curvature`]) where some particle's `w Σ μ` from the last substep's multipliers (as for
+/// [`SHAKE_STIFFNESS_BELOW`], with rest lengths) is at least
+/// this: a tension that stiff turns the links under Gauss–Newton's feet, and Gauss–Newton from
+/// the prediction wanders (the whipping 1000:1 chain's projections after a failure took 8.6
+/// passes each). Elsewhere a curvature pass, about five ordinary ones, costs more than it saves.
+/// Measured (scratch tests, 5 s at 8 × 1 from horizontal, no damping; Newton passes for bounds
+/// of 4 / 8 / 12 / 16 / never): the report's 1000:1 chain 6950 / 7124 / 7628 / 8099 / 10 143;
+/// its 200-link chain (equal masses) 5751 / 5602 / 5367 / 5367 / 5367 — from 12 on, bit for bit
+/// as without. At 12, valgrind callgrind over the whole run: 1000:1 chain −13.5 %
+/// instructions, a 10⁵× load −55 % (30 758 → 12 464 passes), 200 links +0.3 % (this check
+/// after its 199 failures; it never reaches the bound, nor does the rope yanked a kilometre in
+/// `tests/hard_cases.rs`: their trajectories are unchanged).
+pub const CURVATURE_AFTER_SHAKE_ABOVE: f64 = 12.0;
 
 /// Gauss–Newton passes a projection takes before full Newton passes (with the constraints'
 /// curvature, see [`curvature`]) take over, where they can. Gauss–Newton does not converge at
@@ -541,8 +559,9 @@ impl LineSolve<'_, '_> {
     }
 
     /// SHAKE's Newton passes, and where they do not converge (links turned too far for the start
-    /// directions) the projection from the prediction instead — without a curvature pass: after
-    /// SHAKE's passes it cost more than it saved (see [`curvature`]). Returns the passes taken.
+    /// directions) the projection from the prediction instead — with a curvature pass first only
+    /// in a tense line ([`CURVATURE_AFTER_SHAKE_ABOVE`]): elsewhere, after SHAKE's passes, it
+    /// cost more than it saved (see [`curvature`]). Returns the passes taken.
     ///
     /// # Safety
     /// As for [`LineSolve::start`], which began this substep in [`LineMode::Shake`].
@@ -561,14 +580,21 @@ impl LineSolve<'_, '_> {
             }
             self.restart_without_shake(line);
             let root = rescuable.then(|| self.curvature_root(line)).flatten();
-            passes + self.project(line, begun, root, Start::Restarted)
+            let tense = root.is_some() && self.warm_stiffness(line) >= CURVATURE_AFTER_SHAKE_ABOVE;
+            let start = if tense {
+                Start::RestartedTense
+            } else {
+                Start::Restarted
+            };
+            passes + self.project(line, begun, root, start)
         }
     }
 
     /// The projection's Newton passes. Where `root` is given (the line is alone in its island
     /// and has a root for the curvature elimination, see [`curvature`]) and the prediction is
     /// within [`CURVATURE_BELOW`]: the first pass takes the constraints' curvature where the
-    /// substep began projected (not `Restarted`), and where Gauss–Newton has not converged after
+    /// substep began projected or SHAKE failed in a tense line (not `Restarted`), and where
+    /// Gauss–Newton has not converged after
     /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over. Returns the passes taken.
     ///
     /// # Safety
@@ -1158,6 +1184,28 @@ impl LineSolve<'_, '_> {
                 self.position
                     .set_unchecked(p, self.position.get_unchecked(p) + by * w);
             }
+        }
+    }
+
+    /// The largest `w Σ μ` of the line's particles from the last substep's multipliers, with
+    /// rest lengths (see [`CURVATURE_AFTER_SHAKE_ABOVE`]).
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`] (every index below is
+    /// accessed unchecked).
+    unsafe fn warm_stiffness(&self, line: &LineRef) -> f64 {
+        // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
+        // contract).
+        unsafe {
+            let warm = self.scratch.warm;
+            let (mut stiff, mut mu_before): (f64, f64) = (0.0, 0.0);
+            for (k, &s) in line.sticks.iter().enumerate() {
+                let rest = self.rest(s as usize);
+                let mu = tension_stiffness(warm.get_unchecked(line.offset + k), rest);
+                stiff = stiff.max(self.w(line.p(k)) * (mu_before + mu));
+                mu_before = mu;
+            }
+            stiff.max(self.w(line.p(line.sticks.len())) * mu_before)
         }
     }
 

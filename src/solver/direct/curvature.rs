@@ -21,8 +21,10 @@
 //! where it saves fewer passes it costs time: in a scratch build running it in every projected
 //! substep, the swinging 1000:1 chain took 18 % less time and the 200-link chain (equal masses)
 //! 8 % more. It runs where it pays: in a substep that *begins* projected (right after a SHAKE
-//! fallback, or with a link predicted to turn too far) — not after SHAKE failed in the same
-//! substep, which has spent its passes already — and where the prediction is within
+//! fallback, or with a link predicted to turn too far); after SHAKE failed in the same
+//! substep only where the line's tension is stiff
+//! ([`CURVATURE_AFTER_SHAKE_ABOVE`](super::CURVATURE_AFTER_SHAKE_ABOVE): the 1000:1 chain's
+//! projections after a failure took 8.6 Gauss–Newton passes each); and where the prediction is within
 //! [`CURVATURE_BELOW`](super::CURVATURE_BELOW) of the constraints. Measured (release, 8 × 1,
 //! 5 s from horizontal; old and new builds interleaved, three runs of the best of five): 1000:1
 //! chain 14 285 → 10 331 Newton passes, 26.8–26.9 → 23.6–23.7 ms; 200 links 6613 → 5471 passes,
