@@ -104,7 +104,7 @@ pub struct Island {
     /// Its sticks that no line holds (range into [`LineSet::loose`]), swept after the lines.
     pub loose: Range<u32>,
     /// Its tree (index into [`TreeSet::trees`](super::TreeSet::trees)) when it is solved by
-    /// lines and is a tree with a fork and at most one immovable particle: then it has no lines
+    /// lines and is a tree with a fork and at most two immovable particles: then it has no lines
     /// and is solved whole (see [`tree`](super::tree)).
     pub tree: Option<u32>,
     /// Its hierarchy (index into [`HierarchySet::list`](super::HierarchySet::list)) when it is

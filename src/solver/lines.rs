@@ -45,7 +45,7 @@ use std::ops::Range;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Method {
     /// Chosen per island by [`Solver::organize`](super::Solver::organize): chains and trees (no
-    /// loop, no angle constraint) → [`Method::Lines`] (a tree with a fork and at most one pin
+    /// loop, no angle constraint) → [`Method::Lines`] (a tree with a fork and at most two pins
     /// is solved whole, see [`tree`](super::tree)); everything else (rings, meshes, ragdolls
     /// with posture links, braced structures) → [`Method::Sweep`].
     #[default]

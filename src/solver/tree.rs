@@ -35,12 +35,13 @@
 //! ([`curvature`]): a Y rope with 1000× heavier tips swinging takes 7112 passes in 5 s instead
 //! of 28 707.
 //!
-//! A particle made immovable in place below the root (a pin added without a rebuild; the Bevy
-//! layer rebuilds then) would make the system singular: such a tree is swept for the substep.
-//!
-//! Trees with more than one immovable particle stay on lines (two pins make the system
-//! singular when the path between them is taut, which the line solve detects and sweeps). A
-//! stick torn in place or a one-sided stick out of its active set (see
+//! A tree with a second immovable particle (a string of lanterns between two posts) is rooted
+//! at the first; the stick to the second closes a loop, its multiplier solved by a Schur
+//! complement of one row ([`closure`]); where the path between the two is pulled taut the tree
+//! is swept for the substep. A further particle made immovable in place below the root (a pin
+//! added without a rebuild; the Bevy layer rebuilds then) would make the system singular: such
+//! a tree is swept for the substep too. Trees with three or more immovable particles stay on
+//! lines. A stick torn in place or a one-sided stick out of its active set (see
 //! [`in_system_with`](super::direct::in_system_with)) is a row with `Δλ = −λ` (released): its
 //! subtree moves on its own.
 //!
@@ -79,6 +80,7 @@ use super::{Particles, StickKind, Sticks};
 use glam::{DMat3, DVec3};
 use std::ops::Range;
 
+mod closure;
 mod curvature;
 pub(crate) use curvature::TreeCurvature;
 
@@ -93,6 +95,9 @@ const NONE: u32 = u32::MAX;
 pub struct Tree {
     /// Range into the node arrays of [`TreeSet`].
     pub nodes: Range<u32>,
+    /// The node (counted from the tree's first) of its second immovable particle, if it has
+    /// one: the stick to its parent closes a loop through the root (see the module docs).
+    pub closing: Option<u32>,
 }
 
 /// Every tree-solved island's nodes (breadth-first from the root, tree after tree).
@@ -135,9 +140,10 @@ impl TreeSet {
     }
 }
 
-/// Roots a tree at the island's immovable particle and appends its nodes to `set`; `None` when
-/// the island should stay on lines: no fork (a chain), more than one immovable particle, or
-/// not connected. `queue` and `seen` are scratch (`seen` as long as the particles, all
+/// Roots a tree at the island's (first) immovable particle and appends its nodes to `set`;
+/// `None` when the island should stay on lines: no fork (a chain), more than two immovable
+/// particles, or not connected. A second immovable particle becomes the tree's
+/// [`closing`](Tree::closing) node. `queue` and `seen` are scratch (`seen` as long as the particles, all
 /// `false`, left so).
 pub(crate) fn build(
     set: &mut TreeSet,
@@ -151,6 +157,7 @@ pub(crate) fn build(
         .clone()
         .filter(|&p| particles.inverse_mass[p as usize] <= 0.0);
     let root = immovable.next().unwrap_or(island_particles.start);
+    let second = immovable.next();
     if !fork || immovable.next().is_some() {
         return None;
     }
@@ -187,8 +194,10 @@ pub(crate) fn build(
         set.parent.truncate(start);
         return None;
     }
+    let closing = second.and_then(|p| queue.iter().position(|&q| q == p));
     set.trees.push(Tree {
         nodes: start as u32..set.particle.len() as u32,
+        closing: closing.map(|t| t as u32),
     });
     Some(set.trees.len() as u32 - 1)
 }
@@ -211,6 +220,9 @@ pub(crate) struct Node {
     /// `a_k`, `β_k` of the parent stick.
     a: DVec3,
     beta: f64,
+    /// In a tree with a closing stick: the parts of `g_j`, `v_j`, `β_k` and `Δx_j` that a unit
+    /// change of the closing multiplier adds (see [`TreeSolve::close`]).
+    closing: Closing,
     /// The parent stick's start-of-substep direction and correction direction.
     start: DVec3,
     direction: DVec3,
@@ -237,6 +249,7 @@ impl Default for Node {
             v: DVec3::ZERO,
             a: DVec3::ZERO,
             beta: 0.0,
+            closing: Closing::default(),
             start: DVec3::ZERO,
             direction: DVec3::ZERO,
             dx: DVec3::ZERO,
@@ -252,6 +265,7 @@ impl Node {
     fn clear(&mut self) {
         self.children = 0;
         self.load = DVec3::ZERO;
+        self.closing.load = DVec3::ZERO;
     }
 
     /// Adds a child's `p aᵀ` to `A`.
@@ -283,6 +297,16 @@ impl Node {
             }
         }
     }
+}
+
+/// A node's share of the response to a unit change of a tree's closing multiplier (see
+/// [`closure`]): its part of `g_j`, `v_j`, `β_k` and `Δx_j`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Closing {
+    load: DVec3,
+    v: DVec3,
+    beta: f64,
+    dx: DVec3,
 }
 
 /// Everything one tree solve reads and writes.
@@ -334,22 +358,32 @@ impl TreeSolve<'_, '_> {
     ) -> u32 {
         let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
         assert_eq!(s.len(), nodes.len(), "one scratch node per tree node");
+        let particle = &set.particle[nodes.clone()];
+        // (Only while its particle is immovable: a pin taken away in place leaves a plain tree.)
+        let closing = tree.closing.map(|t| t as usize).filter(|&t| {
+            particle
+                .get(t)
+                .is_some_and(|&p| self.inverse_mass.get(p as usize).is_some_and(|&w| w <= 0.0))
+        });
         let view = TreeView {
-            particle: &set.particle[nodes.clone()],
+            particle,
             stick: &set.stick[nodes],
             parent: &set.parent[tree.nodes.start as usize..tree.nodes.end as usize],
             offset: tree.nodes.start,
+            closing,
         };
         self.check(&view);
         // SAFETY: this task alone holds the tree's particles and multipliers (caller).
         unsafe {
             let mut predicted = f64::INFINITY;
-            if self.first_round && self.pinned_below_root(&view) {
+            if self.first_round && (self.pinned_below_root(&view) || self.closing_taut(&view)) {
                 s[0].mode = LineMode::Sweep;
             } else if self.first_round {
                 // (Not right after a fallback, see [`LineMode::FellBack`].)
                 let shake = self.shake && s[0].mode != LineMode::FellBack;
-                let keeps = curvature.len() == s.len() && self.mirror.is_none();
+                // (Curvature passes do not close a loop: a tree with a closing stick has none.)
+                let keeps =
+                    curvature.len() == s.len() && self.mirror.is_none() && view.closing.is_none();
                 if keeps {
                     self.keep_prediction(&view, curvature);
                 }
@@ -373,7 +407,8 @@ impl TreeSolve<'_, '_> {
             let rescuable = self.first_round
                 && self.mirror.is_none()
                 && predicted < CURVATURE_BELOW
-                && curvature.len() == s.len();
+                && curvature.len() == s.len()
+                && view.closing.is_none();
             let curvature = rescuable.then_some(curvature);
             let passes = if s[0].mode == LineMode::Shake {
                 let (passes, converged) =
@@ -483,11 +518,10 @@ impl TreeSolve<'_, '_> {
         }
     }
 
-    /// `true` when a particle other than the root is immovable.
+    /// `true` when a particle other than the root and the closing node is immovable.
     fn pinned_below_root(&self, view: &TreeView) -> bool {
-        view.particle[1..]
-            .iter()
-            .any(|&p| self.inverse_mass[p as usize] <= 0.0)
+        (1..view.particle.len())
+            .any(|t| Some(t) != view.closing && self.inverse_mass[view.particle[t] as usize] <= 0.0)
     }
 
     /// One Gauss–Seidel sweep over the tree's sticks, root to leaves (no warm start after it).
@@ -642,14 +676,17 @@ impl TreeSolve<'_, '_> {
                 }
                 let earlier = std::mem::replace(&mut before, error);
                 if !eliminated {
-                    self.forward::<false>(view, s);
+                    self.gauss_newton_forward::<false>(view, s);
+                }
+                if view.closing.is_some() {
+                    self.close(view, s);
                 }
                 self.backward(view, s);
                 passes += 1;
                 // (As for lines: see `direct::converges_next`.)
                 eliminated = !converges_next(error, earlier);
                 error = if eliminated {
-                    self.forward::<true>(view, s)
+                    self.gauss_newton_forward::<true>(view, s)
                 } else {
                     self.residual(view)
                 };
@@ -728,12 +765,37 @@ impl TreeSolve<'_, '_> {
         worst
     }
 
-    /// Leaves to root: every stick reduced to `Δλ_k = a_k·Δx_p + β_k`. With `MEASURE`, returns
-    /// the residual at the iterate, as [`TreeSolve::residual`] does (else 0).
+    /// [`TreeSolve::forward`], carrying the closing multiplier's load where the tree has one.
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
-    unsafe fn forward<const MEASURE: bool>(&self, view: &TreeView, s: &mut [Node]) -> f64 {
+    unsafe fn gauss_newton_forward<const MEASURE: bool>(
+        &self,
+        view: &TreeView,
+        s: &mut [Node],
+    ) -> f64 {
+        // SAFETY: as for `solve` (caller).
+        unsafe {
+            if view.closing.is_some() {
+                self.forward::<MEASURE, true>(view, s)
+            } else {
+                self.forward::<MEASURE, false>(view, s)
+            }
+        }
+    }
+
+    /// Leaves to root: every stick reduced to `Δλ_k = a_k·Δx_p + β_k`. With `MEASURE`, returns
+    /// the residual at the iterate, as [`TreeSolve::residual`] does (else 0). With `CLOSED`, the
+    /// closing stick is left out of the reduction and a unit change of its multiplier is carried
+    /// as a second load (`g¹`, `v¹ = A⁻¹ g¹`, `β¹ = −n·v¹ / D`) for [`TreeSolve::close`].
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    unsafe fn forward<const MEASURE: bool, const CLOSED: bool>(
+        &self,
+        view: &TreeView,
+        s: &mut [Node],
+    ) -> f64 {
         let shake = s[0].mode == LineMode::Shake;
         let mut worst: f64 = 0.0;
         // (Every other node clears its accumulators once it has used them, below.)
@@ -756,6 +818,13 @@ impl TreeSolve<'_, '_> {
                 } else {
                     (DVec3::ZERO, DVec3::ZERO)
                 };
+                if CLOSED {
+                    node.closing.v = if w > 0.0 {
+                        node.solve_pair(node.closing.load, DVec3::ZERO).0
+                    } else {
+                        DVec3::ZERO
+                    };
+                }
                 node.clear();
                 let k = row.stick;
                 let alpha = *self.sticks.compliance.get_unchecked(k) * self.inv_h2;
@@ -771,6 +840,17 @@ impl TreeSolve<'_, '_> {
                     );
                     worst = worst.max(error);
                 }
+                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
+                if CLOSED && Some(t) == view.closing {
+                    // The closing stick: its multiplier is solved by `close`; a unit change of it
+                    // loads its other end, `∓w r`.
+                    (node.a, node.beta, node.closing.beta) = (DVec3::ZERO, 0.0, 0.0);
+                    let wp = *self
+                        .inverse_mass
+                        .get_unchecked(*view.particle.get_unchecked(parent) as usize);
+                    earlier.get_unchecked_mut(parent).closing.load -= r * (wp * row.sign);
+                    continue;
+                }
                 let n = row.normal * row.sign;
                 let d = n.dot(node.u) * (1.0 + REGULARISATION) + alpha;
                 if !row.active {
@@ -778,19 +858,23 @@ impl TreeSolve<'_, '_> {
                     // needs no pivot).
                     node.a = DVec3::ZERO;
                     node.beta = -row.lambda;
+                    node.closing.beta = 0.0;
                 } else if d == 0.0 || !d.is_finite() {
                     // (Under SHAKE the system is not symmetric and a pivot may be negative;
                     // zero is a stick no particle of its subtree can move: an immovable child,
                     // which `build` roots at, or a pin added in place.)
                     node.a = DVec3::ZERO;
                     node.beta = 0.0;
+                    node.closing.beta = 0.0;
                     continue;
                 } else {
                     node.a = n / d;
                     node.beta = (-residual - n.dot(node.v)) / d;
+                    if CLOSED {
+                        node.closing.beta = -n.dot(node.closing.v) / d;
+                    }
                 }
                 // Into the parent: A_p −= w_p s_p r aᵀ, g_p += w_p s_p r β (s_p = −s_j).
-                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
                 let wp = *self
                     .inverse_mass
                     .get_unchecked(*view.particle.get_unchecked(parent) as usize);
@@ -798,6 +882,9 @@ impl TreeSolve<'_, '_> {
                 let parent = earlier.get_unchecked_mut(parent);
                 parent.add_child(pull, node.a);
                 parent.load -= pull * node.beta;
+                if CLOSED {
+                    parent.closing.load -= pull * node.closing.beta;
+                }
             }
         }
         worst
@@ -884,6 +971,8 @@ struct TreeView<'a> {
     parent: &'a [u32],
     /// The tree's first node in the set (parents are absolute indices).
     offset: u32,
+    /// The tree's [`closing`](Tree::closing) node while its particle is immovable.
+    closing: Option<usize>,
 }
 
 /// `x yᵀ`.

@@ -458,7 +458,8 @@ impl VerletState {
         if self.solver.tethered.contains(&true) {
             return false;
         }
-        // A tree solved whole is rooted at its one pin: a second one takes it back to lines.
+        // A tree solved whole is rooted at its pin, its second one closes a loop (see
+        // `solver::tree`): another pin re-roots it or takes it back to lines.
         let islands = &self.solver.islands;
         let tree = islands
             .of_particle(slot)

@@ -233,6 +233,7 @@ mod tests {
             stick: &set.stick[nodes.clone()],
             parent: &set.parent[nodes.clone()],
             offset: set.trees[0].nodes.start,
+            closing: None,
         };
         let sticks = solver.sticks.len();
         let warm: Vec<f64> = (0..sticks).map(|k| -0.5 - 0.3 * k as f64).collect();

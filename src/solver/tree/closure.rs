@@ -1,0 +1,263 @@
+//! A tree held by two immovable particles (a string of lanterns hung between two posts, a
+//! Y-shaped rope hung by two of its ends): the stick to the second one closes a loop.
+//!
+//! # Why
+//! The elimination of [`tree`](super) roots a tree at its immovable particle and reduces every
+//! stick towards it; a second immovable particle cannot be reduced (nothing below its stick
+//! can move: its pivot is zero), so such trees used to be covered by lines meeting at forks,
+//! which block Gauss–Seidel couples a stick or two per pass — a rope of 40 links between two
+//! posts carrying three strings of 10 links stretched 161 % (equal masses), 223 % (10× weights)
+//! and 1208 % (100×) swinging, where the same tree on one post stayed below 10⁻⁸.
+//!
+//! # The step
+//! Baraff 1996 ("Linear-time dynamics using Lagrange multipliers") closes loops with auxiliary
+//! constraints solved by a Schur complement. Here the closing stick `k` is the one from the
+//! second immovable particle `B` to its parent `c`. The forward traversal leaves it out and
+//! carries, beside each node's load `g_j`, the load a unit change of `Δλ_k` puts on `c`
+//! (`∓w_c r_k`, the stick's pull on its other end) up to the root: `g¹`, `v¹ = A⁻¹ g¹`,
+//! `β¹ = −n·v¹ / D`. Substituting from the root along the path to `c` gives `c`'s move without
+//! the change and per unit of it, `Δx_c + Δλ_k Δx¹_c`; the closing row (its end `B` does not
+//! move) `−n_k·Δx_c + α̃_k Δλ_k = −(C_k + α̃_k λ_k)` then gives
+//!
+//! ```text
+//! Δλ_k = (−(C_k + α̃_k λ_k) + n_k·Δx_c) / (α̃_k − n_k·Δx¹_c)
+//! ```
+//!
+//! and every node's substitution takes it in (`v += Δλ_k v¹`, `β += Δλ_k β¹`) before the usual
+//! substitution from the root moves the particles. One extra 3 × 3 solve per node and a
+//! substitution along one path: O(n), exact for the linearised system (checked against the
+//! dense one below). Under SHAKE the same equations hold along the start directions.
+//!
+//! A rigid path between the two pulled to within 0.1 % of its length makes the loop's system
+//! singular (as for a line between two pins): the tree is swept for that substep. Curvature and
+//! full Newton passes (see [`curvature`](super::curvature)) do not close the loop, so such a
+//! tree's projections take Gauss–Newton passes only. Three or more immovable particles stay on
+//! lines.
+
+use super::super::StickKind;
+use super::super::direct::TAUT;
+use super::{Node, REGULARISATION, TreeSolve, TreeView};
+use glam::DVec3;
+
+impl TreeSolve<'_, '_> {
+    /// `true` when the path between the root and the closing node is rigid and within
+    /// [`TAUT`] of its full length: the loop's system is singular there (as for a line between
+    /// two pins, which is swept for the substep too).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    pub(super) unsafe fn closing_taut(&self, view: &TreeView) -> bool {
+        let Some(closing) = view.closing else {
+            return false;
+        };
+        let mut rest = 0.0;
+        let mut t = closing;
+        while t != 0 {
+            let k = view.stick[t] as usize;
+            let rigid = matches!(self.sticks.kind[k], StickKind::Equal | StickKind::AtMost)
+                && self.sticks.compliance[k] == 0.0;
+            if !rigid {
+                return false;
+            }
+            rest += self.sticks.rest_length[k];
+            t = (view.parent[t] - view.offset) as usize;
+        }
+        // SAFETY: the tree's particles are this task's (caller).
+        let apart = unsafe {
+            self.position.get(view.particle[closing] as usize)
+                - self.position.get(view.particle[0] as usize)
+        };
+        apart.length() >= rest * (1.0 - TAUT)
+    }
+
+    /// The closing stick's `Δλ` (a Schur complement of one row, after Baraff 1996's loop-closing
+    /// constraints): the closing node's parent `c` moves by `Δx_c + Δλ Δx¹_c` (substituted from
+    /// the root along its path: its move without the closing multiplier's change, and the
+    /// response to a unit change), and the closing stick's row `−n·Δx_c + α̃ Δλ = −(C + α̃ λ)`
+    /// (its immovable end does not move) must hold. Then every node's substitution takes the
+    /// change in: `v += Δλ v¹`, `β += Δλ β¹`, and the closing node's own is `Δλ`. Zero where
+    /// the loop's system is singular along the stick or anything is not finite; a closing stick
+    /// out of the system is released (`Δλ = −λ`).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`], after [`TreeSolve::forward`] with `CLOSED`.
+    pub(super) unsafe fn close(&self, view: &TreeView, s: &mut [Node]) {
+        let Some(closing) = view.closing else {
+            return;
+        };
+        let finite = |x: DVec3| if x.is_finite() { x } else { DVec3::ZERO };
+        let root = view.particle[0] as usize;
+        (s[0].dx, s[0].closing.dx) = if self.inverse_mass[root] > 0.0 {
+            s[0].solve_pair(s[0].load, s[0].closing.load)
+        } else {
+            (DVec3::ZERO, DVec3::ZERO)
+        };
+        // (Parents come before their children: the path to `c` is substituted by `c`.)
+        let c = (view.parent[closing] - view.offset) as usize;
+        for t in 1..=c {
+            let parent = (view.parent[t] - view.offset) as usize;
+            let (parent_dx, parent_dx1) = (s[parent].dx, s[parent].closing.dx);
+            let node = &mut s[t];
+            let step = node.a.dot(parent_dx) + node.beta;
+            node.dx = finite(node.u * step + node.v);
+            let step = node.a.dot(parent_dx1) + node.closing.beta;
+            node.closing.dx = finite(node.u * step + node.closing.v);
+        }
+        // SAFETY: as for `solve` (caller).
+        let row = unsafe { self.row(view, closing) };
+        let d_lambda = if row.active {
+            let n = row.normal * row.sign;
+            let alpha = self.sticks.compliance[row.stick] * self.inv_h2;
+            let compliance = -n.dot(s[c].closing.dx) * (1.0 + REGULARISATION) + alpha;
+            let step = (-(row.c + alpha * row.lambda) + n.dot(s[c].dx)) / compliance;
+            if compliance > 0.0 && step.is_finite() {
+                step
+            } else {
+                0.0
+            }
+        } else {
+            -row.lambda
+        };
+        s[0].load += s[0].closing.load * d_lambda;
+        for node in &mut s[1..] {
+            node.v += node.closing.v * d_lambda;
+            node.beta += node.closing.beta * d_lambda;
+        }
+        let node = &mut s[closing];
+        (node.a, node.u, node.v, node.beta) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, d_lambda);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Node, TreeSolve, TreeView};
+    use crate::solver::shared::SharedSlice;
+    use crate::solver::{Solver, StickKind, kkt};
+    use glam::DVec3;
+
+    /// A path of four bent links between two pins with a branch of two links from its middle
+    /// (unequal masses, links stretched and compressed, one compliant): one Gauss–Newton pass of
+    /// the closed tree (projected, from λ = 0) against the dense linearised system's step.
+    #[test]
+    fn a_pass_closes_the_loop_as_the_dense_system_does() {
+        let mut solver = Solver::default();
+        let a = solver.add_particle(DVec3::ZERO, 0.0);
+        solver.pin(a, DVec3::ZERO);
+        let mut link = |from: u32, to: DVec3, w: f64, rest: f64, compliance: f64| {
+            let p = solver.add_particle(to, w);
+            solver.sticks.push(
+                [from, p],
+                rest,
+                compliance,
+                StickKind::Equal,
+                f64::INFINITY,
+                0,
+            );
+            p
+        };
+        let p1 = link(a, DVec3::new(0.09, -0.05, 0.01), 1.0, 0.1, 0.0);
+        let fork = link(p1, DVec3::new(0.2, -0.08, 0.0), 2.0, 0.12, 0.0);
+        let p3 = link(fork, DVec3::new(0.3, -0.04, -0.02), 0.5, 0.1, 1e-4);
+        let branch = link(fork, DVec3::new(0.21, -0.19, 0.01), 1.0, 0.1, 0.0);
+        link(branch, DVec3::new(0.23, -0.3, 0.0), 0.01, 0.1, 0.0);
+        let b = solver.add_particle(DVec3::new(0.41, 0.0, 0.0), 0.0);
+        solver.pin(b, DVec3::new(0.41, 0.0, 0.0));
+        solver
+            .sticks
+            .push([b, p3], 0.1, 0.0, StickKind::Equal, f64::INFINITY, 0);
+        solver.organize();
+        // (Then the root unpinned in place, as the Bevy layer does without a rebuild: the root
+        // moves, the closing stick still closes the loop.)
+        for root_movable in [false, true] {
+            let root = solver.islands.lines().trees.particle[0] as usize;
+            solver.particles.inverse_mass[root] = if root_movable { 0.7 } else { 0.0 };
+            closed_pass_matches_dense(&solver);
+        }
+    }
+
+    /// One pass of `solver`'s closed tree against the dense system's step.
+    fn closed_pass_matches_dense(solver: &Solver) {
+        let set = solver.islands.lines().trees.clone();
+        let tree = &set.trees[0];
+        assert!(tree.closing.is_some(), "two pins: a closed tree");
+        // (The root is the first pin; the closing node the second, still immovable.)
+        let closing = tree.closing.unwrap() as usize + tree.nodes.start as usize;
+        assert_eq!(
+            solver.particles.inverse_mass[set.particle[closing] as usize],
+            0.0
+        );
+        let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
+        let view = TreeView {
+            particle: &set.particle[nodes.clone()],
+            stick: &set.stick[nodes.clone()],
+            parent: &set.parent[nodes.clone()],
+            offset: tree.nodes.start,
+            closing: tree.closing.map(|t| t as usize),
+        };
+        let mut s = vec![Node::default(); view.particle.len()];
+        let x = solver.particles.position.clone();
+        let (mut position, mut previous) = (x.clone(), x.clone());
+        let sticks = solver.sticks.len();
+        let mut lambda = vec![0.0; sticks];
+        let inv_h2 = 4096.0;
+        {
+            let (position, previous) = (
+                SharedSlice::new(&mut position),
+                SharedSlice::new(&mut previous),
+            );
+            let lambda = SharedSlice::new(&mut lambda);
+            let solve = TreeSolve {
+                position: &position,
+                previous: &previous,
+                mirror: None,
+                lambda: &lambda,
+                inverse_mass: &solver.particles.inverse_mass,
+                sticks: &solver.sticks,
+                inv_h2,
+                shake: false,
+                first_round: true,
+            };
+            solve.check(&view);
+            // SAFETY: this test alone holds the slices; `check` passed; the closing node and
+            // the root are the only immovable particles.
+            unsafe {
+                solve.forward::<false, true>(&view, &mut s);
+                solve.close(&view, &mut s);
+                solve.backward(&view, &mut s);
+            }
+        }
+        let ends: Vec<[usize; 2]> = solver
+            .sticks
+            .ends()
+            .iter()
+            .map(|e| e.map(|p| p as usize))
+            .collect();
+        // (With λ = 0 the full Newton step is Gauss–Newton's: no curvature term.)
+        let (want_dx, want_dl) = kkt::dense::newton_step(&kkt::dense::System {
+            x: &x,
+            inverse_mass: &solver.particles.inverse_mass,
+            ends: &ends,
+            lambda: &vec![0.0; sticks],
+            rest: &solver.sticks.rest_length,
+            compliance: &solver.sticks.compliance,
+            active: &vec![true; sticks],
+            inv_h2,
+        });
+        let scale = want_dx.iter().map(|d| d.length()).fold(0.0, f64::max);
+        for j in 0..x.len() {
+            let got = position[j] - x[j];
+            assert!(
+                (got - want_dx[j]).length() < 1e-7 * scale,
+                "particle {j}: Δx {got} against {}",
+                want_dx[j]
+            );
+        }
+        for k in 0..sticks {
+            let (got, want) = (lambda[k], want_dl[k]);
+            assert!(
+                (got - want).abs() < 1e-7 * want.abs().max(1e-3),
+                "stick {k}: Δλ {got} against {want}"
+            );
+        }
+    }
+}
