@@ -131,8 +131,10 @@ fn heavy_tip_chain_hangs_unstretched() {
 
 /// Heavy tip released from horizontal, no damping, 5 s: largest link strain at any step.
 /// Measured: sweeps at 8 × 1 908 %; lines below 10⁻⁶ % (goal: below 1 %). Also the cost, in
-/// Newton passes (a count, not a time): 10 143 (4.0 per substep, a curvature or full Newton pass
-/// counted as one; 10 331 before the full Newton rescue)
+/// Newton passes (a count, not a time): 7628 (3.0 per substep, a curvature or full Newton pass
+/// counted as one) since a projection after a failed SHAKE in a tense line starts with a
+/// curvature pass too (`solver::direct::CURVATURE_AFTER_SHAKE_ABOVE`); 10 143 (4.0 per
+/// substep; 10 331 before the full Newton rescue)
 /// since a substep that begins projected starts with the constraints' curvature
 /// (`solver::direct`, module `curvature`); 14 285 (5.6 per substep) since a substep after a
 /// SHAKE fallback is projected without trying SHAKE (`LineMode::FellBack`); 16 409 before, when
@@ -156,7 +158,7 @@ fn heavy_tip_chain_swings_unstretched() {
     }
     assert!(result[0] > 0.5, "the sweep stretches: {}", result[0]);
     assert!(result[1] < 1e-6, "lines: {}", result[1]);
-    assert!(passes < 12_000, "{passes} Newton passes");
+    assert!(passes < 9_000, "{passes} Newton passes");
 }
 
 /// Loads 10⁴, 10⁵ and 10⁶ times a link's mass on a 100-link chain (1 m) and on the three tips

@@ -246,7 +246,8 @@ enum Start {
 
 /// After SHAKE failed in a substep, the projection that follows starts with a curvature pass
 /// (see [`curvature`]) where some particle's `w Σ μ` from the last substep's multipliers (as for
-/// [`SHAKE_STIFFNESS_BELOW`], with rest lengths) is at least
+/// [`SHAKE_STIFFNESS_BELOW`], with rest lengths; a one-sided stick slack at the prediction
+/// counts zero, as it is not warm-started) is at least
 /// this: a tension that stiff turns the links under Gauss–Newton's feet, and Gauss–Newton from
 /// the prediction wanders (the whipping 1000:1 chain's projections after a failure took 8.6
 /// passes each). Elsewhere a curvature pass, about five ordinary ones, costs more than it saves.
@@ -580,7 +581,10 @@ impl LineSolve<'_, '_> {
             }
             self.restart_without_shake(line);
             let root = rescuable.then(|| self.curvature_root(line)).flatten();
-            let tense = root.is_some() && self.warm_stiffness(line) >= CURVATURE_AFTER_SHAKE_ABOVE;
+            // (Measured only where a curvature pass may run, see `project`.)
+            let tense = root.is_some()
+                && begun.predicted < CURVATURE_BELOW
+                && self.warm_stiffness(line) >= CURVATURE_AFTER_SHAKE_ABOVE;
             let start = if tense {
                 Start::RestartedTense
             } else {
