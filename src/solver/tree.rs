@@ -381,9 +381,8 @@ impl TreeSolve<'_, '_> {
             } else if self.first_round {
                 // (Not right after a fallback, see [`LineMode::FellBack`].)
                 let shake = self.shake && s[0].mode != LineMode::FellBack;
-                // (Curvature passes do not close a loop: a tree with a closing stick has none.)
                 let keeps =
-                    curvature.len() == s.len() && self.mirror.is_none() && view.closing.is_none();
+                    curvature.len() == s.len() && self.mirror.is_none() && self.curvable(&view);
                 if keeps {
                     self.keep_prediction(&view, curvature);
                 }
@@ -408,7 +407,7 @@ impl TreeSolve<'_, '_> {
                 && self.mirror.is_none()
                 && predicted < CURVATURE_BELOW
                 && curvature.len() == s.len()
-                && view.closing.is_none();
+                && self.curvable(&view);
             let curvature = rescuable.then_some(curvature);
             let passes = if s[0].mode == LineMode::Shake {
                 let (passes, converged) =
@@ -516,6 +515,13 @@ impl TreeSolve<'_, '_> {
             StickKind::AtLeast => last.max(0.0),
             StickKind::Torn => 0.0,
         }
+    }
+
+    /// `true` when curvature passes apply (see [`curvature`]): always, but in a tree with a
+    /// closing stick whose root was unpinned in place (they close the loop from an immovable
+    /// root only; Gauss–Newton passes close it either way).
+    fn curvable(&self, view: &TreeView) -> bool {
+        view.closing.is_none() || self.inverse_mass[view.particle[0] as usize] <= 0.0
     }
 
     /// `true` when a particle other than the root and the closing node is immovable.

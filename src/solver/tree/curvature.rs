@@ -21,7 +21,7 @@
 //! kept 360–860× its links' lengths without them (81 519 / 81 805 passes), below 10⁻⁹ with them
 //! (22 863 / 16 966 passes).
 
-use super::super::kkt::{self, Link, Reduced, Subtree};
+use super::super::kkt::{self, Link, Load, Reduced, Subtree};
 use super::{Node, TreeSolve, TreeView};
 use glam::DVec3;
 
@@ -36,6 +36,12 @@ pub(crate) struct TreeCurvature {
     dx: DVec3,
     /// Where the substep's prediction put the node.
     predicted: DVec3,
+    /// In a tree with a closing stick (see [`closure`](super::closure)): the unit load its
+    /// children pass up (and the closing stick's, at its held end), the node's part of the
+    /// response to it, and its `Δx` per unit change of the closing multiplier.
+    carried: DVec3,
+    load: Load,
+    dx_unit: DVec3,
 }
 
 impl TreeSolve<'_, '_> {
@@ -96,14 +102,21 @@ impl TreeSolve<'_, '_> {
     }
 
     /// One full Newton pass: leaves to root, then back (see [`kkt`]). With `MOVED`, the tree
-    /// may have moved from its prediction (`R` includes `M (x − x̃)`).
+    /// may have moved from its prediction (`R` includes `M (x − x̃)`). In a tree with a
+    /// closing stick (its root immovable), the stick is left out of the elimination: its
+    /// curvature and force join its held end's equation, a unit change of its multiplier is
+    /// carried to the root as a second load ([`Reduced::carry`]), and the multiplier comes from
+    /// a Schur complement of one row ([`kkt::closing_step`]) — as for a line pinned at both
+    /// ends (see `direct`'s `closure`).
     ///
     /// # Safety
     /// As for [`TreeSolve::full_newton`].
     unsafe fn eliminate<const MOVED: bool>(&self, view: &TreeView, c: &mut [TreeCurvature]) {
         for node in c.iter_mut() {
             node.below = Subtree::default();
+            node.carried = DVec3::ZERO;
         }
+        let mut closing_link = None;
         for t in (1..view.particle.len()).rev() {
             // SAFETY: `t` and its parent (< t) are nodes of the view, every index passed
             // `check`, the particles and multipliers are this task's (caller).
@@ -112,6 +125,26 @@ impl TreeSolve<'_, '_> {
                 let k = row.stick;
                 if !row.active {
                     self.lambda.set_unchecked(k, 0.0);
+                }
+                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
+                if Some(t) == view.closing {
+                    // (From the immovable end to the held one, as a line's closing stick.)
+                    let held = *view.particle.get_unchecked(parent) as usize;
+                    let link = Link {
+                        normal: -(row.normal * row.sign),
+                        c: row.c,
+                        length: row.c + *self.sticks.rest_length.get_unchecked(k),
+                        lambda: self.lambda.get_unchecked(k),
+                        alpha: *self.sticks.compliance.get_unchecked(k) * self.inv_h2,
+                        inverse_mass: *self.inverse_mass.get_unchecked(held),
+                        offset: DVec3::ZERO,
+                        active: row.active,
+                    };
+                    let into = c.get_unchecked_mut(parent);
+                    into.below.add(&kkt::closing_load(&link));
+                    into.carried += link.normal;
+                    closing_link = Some(link);
+                    continue;
                 }
                 let child = *view.particle.get_unchecked(t) as usize;
                 let link = Link {
@@ -129,11 +162,24 @@ impl TreeSolve<'_, '_> {
                     active: row.active,
                 };
                 let (reduced, up) = kkt::reduce(&link, &c.get_unchecked(t).below);
-                c.get_unchecked_mut(t).reduced = reduced;
-                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
-                c.get_unchecked_mut(parent).below.add(&up);
+                let node = c.get_unchecked_mut(t);
+                node.reduced = reduced;
+                let carried_up = closing_link.map(|_| {
+                    let load_up;
+                    (node.load, load_up) = reduced.carry(link.normal, node.carried);
+                    load_up
+                });
+                let into = c.get_unchecked_mut(parent);
+                into.below.add(&up);
+                if let Some(load_up) = carried_up {
+                    into.carried += load_up;
+                }
             }
         }
+        // (The closing multiplier's change; zero without a closing stick.)
+        // SAFETY: as above.
+        let d_closing =
+            closing_link.map_or(0.0, |link| unsafe { self.closing_change(view, c, &link) });
         let root = view.particle[0] as usize;
         let root_offset = if MOVED {
             // SAFETY: as above.
@@ -149,7 +195,15 @@ impl TreeSolve<'_, '_> {
             unsafe {
                 let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
                 let parent_dx = c.get_unchecked(parent).dx;
-                let (d_lambda, dx) = c.get_unchecked(t).reduced.substitute(parent_dx);
+                let node = c.get_unchecked(t);
+                let (d_lambda, dx) = match closing_link {
+                    // (The closing node is immovable: its own subtrees hang from a fixed point.)
+                    Some(_) if Some(t) == view.closing => (d_closing, DVec3::ZERO),
+                    Some(_) => node
+                        .reduced
+                        .substitute_loaded(&node.load, d_closing, parent_dx),
+                    None => node.reduced.substitute(parent_dx),
+                };
                 c.get_unchecked_mut(t).dx = dx;
                 let k = *view.stick.get_unchecked(t) as usize;
                 self.lambda
@@ -157,6 +211,29 @@ impl TreeSolve<'_, '_> {
                 self.shift(*view.particle.get_unchecked(t) as usize, dx);
             }
         }
+    }
+
+    /// The closing multiplier's change: a back substitution from the (immovable) root to the
+    /// closing stick's held end that moves nothing gives that end's `Δx⁰` and `Δx¹` (per unit
+    /// change), then the stick's linearised row ([`kkt::closing_step`]).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::full_newton`], after the elimination of a tree with a closing stick.
+    unsafe fn closing_change(&self, view: &TreeView, c: &mut [TreeCurvature], link: &Link) -> f64 {
+        let Some(closing) = view.closing else {
+            return 0.0;
+        };
+        let held = (view.parent[closing] - view.offset) as usize;
+        (c[0].dx, c[0].dx_unit) = (DVec3::ZERO, DVec3::ZERO);
+        // (Parents come before their children: the path to the held end is done by then.)
+        for t in 1..=held {
+            let parent = (view.parent[t] - view.offset) as usize;
+            let (parent_dx, parent_unit) = (c[parent].dx, c[parent].dx_unit);
+            let node = &mut c[t];
+            node.dx = node.reduced.substitute(parent_dx).1;
+            node.dx_unit = node.reduced.substitute_load(&node.load, parent_unit).1;
+        }
+        kkt::closing_step(link, c[held].dx, c[held].dx_unit)
     }
 
     /// `M (x − x̃)` of particle `p`, `x̃` its prediction.
