@@ -382,6 +382,50 @@ pub(crate) mod dense {
         (dx, solution[nx..].to_vec())
     }
 
+    /// Asserts that `solver`'s particles moved from `x` to `position` and its multipliers from
+    /// `warm` to `lambda` by the dense system's Newton step (every stick in the system), within
+    /// `tolerance` relative to the largest move and to `|Δλ|` (at least `lambda_floor`).
+    pub(crate) fn assert_newton_step(
+        solver: &crate::solver::Solver,
+        (x, position): (&[DVec3], &[DVec3]),
+        (warm, lambda): (&[f64], &[f64]),
+        inv_h2: f64,
+        (tolerance, lambda_floor): (f64, f64),
+    ) {
+        let ends: Vec<[usize; 2]> = solver
+            .sticks
+            .ends()
+            .iter()
+            .map(|e| e.map(|p| p as usize))
+            .collect();
+        let (want_dx, want_dl) = newton_step(&System {
+            x,
+            inverse_mass: &solver.particles.inverse_mass,
+            ends: &ends,
+            lambda: warm,
+            rest: &solver.sticks.rest_length,
+            compliance: &solver.sticks.compliance,
+            active: &vec![true; ends.len()],
+            inv_h2,
+        });
+        let scale = want_dx.iter().map(|d| d.length()).fold(0.0, f64::max);
+        for j in 0..x.len() {
+            let got = position[j] - x[j];
+            assert!(
+                (got - want_dx[j]).length() < tolerance * scale,
+                "particle {j}: Δx {got} against {}",
+                want_dx[j]
+            );
+        }
+        for k in 0..ends.len() {
+            let (got, want) = (lambda[k] - warm[k], want_dl[k]);
+            assert!(
+                (got - want).abs() < tolerance * want.abs().max(lambda_floor),
+                "stick {k}: Δλ {got} against {want}"
+            );
+        }
+    }
+
     /// Solves the augmented system `a` (each row ends with its right-hand side).
     fn gauss(mut a: Vec<Vec<f64>>) -> Vec<f64> {
         let n = a.len();

@@ -344,38 +344,13 @@ mod tests {
             // SAFETY: this test alone holds the slices; `check` passed; only the root is pinned.
             unsafe { solve.curvature_pass(&view, &s, &mut c) };
         }
-        let ends: Vec<[usize; 2]> = solver
-            .sticks
-            .ends()
-            .iter()
-            .map(|e| e.map(|p| p as usize))
-            .collect();
-        let (want_dx, want_dl) = kkt::dense::newton_step(&kkt::dense::System {
-            x: &x,
-            inverse_mass: &solver.particles.inverse_mass,
-            ends: &ends,
-            lambda: &warm,
-            rest: &solver.sticks.rest_length,
-            compliance: &solver.sticks.compliance,
-            active: &vec![true; sticks],
-            inv_h2,
-        });
         // (Within the regularisation of `D`, 10⁻⁹ relative, times the system's conditioning.)
-        let scale = want_dx.iter().map(|d| d.length()).fold(0.0, f64::max);
-        for j in 0..x.len() {
-            let got = position[j] - x[j];
-            assert!(
-                (got - want_dx[j]).length() < 1e-6 * scale,
-                "Δx {got} against {}",
-                want_dx[j]
-            );
-        }
-        for k in 0..sticks {
-            let (got, want) = (lambda[k] - warm[k], want_dl[k]);
-            assert!(
-                (got - want).abs() < 1e-6 * want.abs().max(1.0),
-                "Δλ {got} against {want}"
-            );
-        }
+        kkt::dense::assert_newton_step(
+            &solver,
+            (&x, &position),
+            (&warm, &lambda),
+            inv_h2,
+            (1e-6, 1.0),
+        );
     }
 }
