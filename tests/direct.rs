@@ -746,8 +746,8 @@ fn lantern_line(span: f64, weight: f64) -> Solver {
 /// weights 1×, 10× and 100× a link: largest link strain after any step below 10⁻⁶ (measured
 /// below 10⁻⁹), and its energy (at the middle of the substep) never more than 10⁻³·m·g·1 m
 /// above its value after the first step (measured 3·10⁻⁶–1·10⁻⁴: SHAKE's oscillation).
-/// Before, covered by lines meeting at forks: 161 %, 223 % and 1208 % over 5 s (a scratch run
-/// of the same scene). Pulled straight between its posts (a rigid path within 0.1 % of taut:
+/// Before, covered by lines meeting at forks: 4.0 %, 5.6 % and 30 % over 5 s (a review's run of
+/// the same scene; swept: 18 %, 26 %, 101 %). Pulled straight between its posts (a rigid path within 0.1 % of taut:
 /// singular) it is swept for those substeps, as a line between two pins is, and stays finite
 /// (measured 23 % and 114 % strain under 1× and 100× weights over 5 s).
 #[test]
@@ -788,10 +788,7 @@ fn a_tree_between_two_pins_swings_unstretched() {
             worst * 100.0
         );
         assert!(solver.particles.all_finite());
-        assert!(
-            worst < 100.0,
-            "{weight}× pulled straight: max strain {worst}"
-        );
+        assert!(worst < 3.0, "{weight}× pulled straight: max strain {worst}");
     }
 }
 
@@ -880,8 +877,8 @@ fn a_lamp_on_a_bridle_swings_unstretched() {
 /// would have to stretch to twice their length), damping 0.5/s: the tree is swept whole while
 /// its path between the pins is taut (no solution holds both ends), and nothing explodes: every
 /// particle stays finite and within 5 m of the left pin, and the energy over the next 5 s
-/// stays within 1.5× its value after the pull. Measured: 18 898 J after the pull, at most
-/// 23 892 J (1.26×), farthest particle 3.94 m — the swept lamp rope stretches under the 100×
+/// stays within 1.5× its value after the pull. Measured: 21 262 J after the pull, at most
+/// 28 906 J (1.36×), farthest particle 4.23 m — the swept lamp rope stretches under the 100×
 /// lamp. Before, as lines meeting at the ring (the lamp's line solved exactly, the taut lines
 /// swept): 10 030 J, then up to 14 283 J (1.42×), farthest 2.43 m.
 #[test]
