@@ -426,6 +426,43 @@ pub(crate) mod dense {
         }
     }
 
+    /// `(Δx, Δλ)` of one pass of the linearised system in multipliers, stick `k` moving its
+    /// ends along `r[k]` (`Δx_b += w_b r Δλ`, `Δx_a −= w_a r Δλ`; SHAKE's start directions, or
+    /// the current ones) and its row `n_k·(Δx_b − Δx_a) + α̃_k Δλ_k = −(C_k + α̃_k λ_k)` (`n_k`
+    /// the current direction); a stick out of the system is released (`Δλ = −λ`). Unsymmetric
+    /// where `r ≠ n`: the Gauss–Newton and SHAKE passes of the line and tree solves.
+    pub(crate) fn step_along(s: &System, r: &[DVec3]) -> (Vec<DVec3>, Vec<f64>) {
+        let m = s.ends.len();
+        let alpha = |k: usize| s.compliance[k] * s.inv_h2;
+        let mut a = vec![vec![0.0; m + 1]; m];
+        for (k, &[p, q]) in s.ends.iter().enumerate() {
+            if !s.active[k] {
+                a[k][k] = 1.0;
+                a[k][m] = -s.lambda[k];
+                continue;
+            }
+            let d = s.x[q] - s.x[p];
+            let n = d.normalize();
+            for (j, &[pj, qj]) in s.ends.iter().enumerate() {
+                // (How a unit Δλ_j moves particle i.)
+                let moved = |i: usize| {
+                    let w = s.inverse_mass[i];
+                    r[j] * w * (f64::from(i == qj) - f64::from(i == pj))
+                };
+                a[k][j] = n.dot(moved(q) - moved(p));
+            }
+            a[k][k] += alpha(k);
+            a[k][m] = -(d.length() - s.rest[k] + alpha(k) * s.lambda[k]);
+        }
+        let dl = gauss(a);
+        let mut dx = vec![DVec3::ZERO; s.x.len()];
+        for (j, &[p, q]) in s.ends.iter().enumerate() {
+            dx[q] += r[j] * s.inverse_mass[q] * dl[j];
+            dx[p] -= r[j] * s.inverse_mass[p] * dl[j];
+        }
+        (dx, dl)
+    }
+
     /// Solves the augmented system `a` (each row ends with its right-hand side).
     fn gauss(mut a: Vec<Vec<f64>>) -> Vec<f64> {
         let n = a.len();

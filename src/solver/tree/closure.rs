@@ -147,6 +147,7 @@ impl TreeSolve<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::super::{Node, TreeCurvature, TreeSolve, TreeView};
+    use crate::solver::direct::LineMode;
     use crate::solver::shared::SharedSlice;
     use crate::solver::{Solver, StickKind, kkt};
     use glam::DVec3;
@@ -271,5 +272,197 @@ mod tests {
             inv_h2,
             (1e-7, 1e-3),
         );
+    }
+
+    /// Variants of a closed tree — a rope continuing past the second pin, the closing stick
+    /// stored either way round and compliant, a slack rope link on the path between the pins
+    /// (released), the root unpinned in place — one pass along the start directions (SHAKE,
+    /// turned from the current ones) or the current ones (Gauss–Newton), λ from 0 or not: the
+    /// closed elimination against the dense unsymmetric system's step (`kkt::dense::step_along`;
+    /// after a review's check of 9b1a266).
+    #[test]
+    fn shake_and_gauss_newton_passes_close_the_loop_as_the_dense_system_does() {
+        for variant in 0..16 {
+            let [past, flip, compliant, released] = [1, 2, 4, 8].map(|bit| variant & bit != 0);
+            let mut solver = variant_scene(past, flip, compliant, released);
+            for root_movable in [false, true] {
+                let root = solver.islands.lines().trees.particle[0] as usize;
+                solver.particles.inverse_mass[root] = if root_movable { 0.7 } else { 0.0 };
+                for (shake, lambda) in [(false, 0.0), (false, -0.3), (true, 0.0), (true, -0.3)] {
+                    one_pass_matches_dense(&solver, shake, lambda);
+                }
+            }
+        }
+    }
+
+    /// The closed tree of [`a_pass_closes_the_loop_as_the_dense_system_does`], varied.
+    fn variant_scene(past: bool, flip: bool, compliant: bool, released: bool) -> Solver {
+        let mut solver = Solver::default();
+        let a = solver.add_particle(DVec3::ZERO, 0.0);
+        solver.pin(a, DVec3::ZERO);
+        let mut link = |from: u32, to: DVec3, w: f64, rest: f64, kind: StickKind| {
+            let p = solver.add_particle(to, w);
+            solver
+                .sticks
+                .push([from, p], rest, 0.0, kind, f64::INFINITY, 0);
+            p
+        };
+        let p1 = link(a, DVec3::new(0.09, -0.05, 0.01), 1.0, 0.1, StickKind::Equal);
+        let (rest, kind) = match released {
+            true => (0.2, StickKind::AtMost),
+            false => (0.12, StickKind::Equal),
+        };
+        let fork = link(p1, DVec3::new(0.2, -0.08, 0.0), 2.0, rest, kind);
+        let p3 = link(
+            fork,
+            DVec3::new(0.3, -0.04, -0.02),
+            0.5,
+            0.1,
+            StickKind::Equal,
+        );
+        let branch = link(
+            fork,
+            DVec3::new(0.21, -0.19, 0.01),
+            1.0,
+            0.1,
+            StickKind::Equal,
+        );
+        link(
+            branch,
+            DVec3::new(0.23, -0.3, 0.0),
+            0.01,
+            0.1,
+            StickKind::Equal,
+        );
+        let b = solver.add_particle(DVec3::new(0.41, 0.0, 0.0), 0.0);
+        solver.pin(b, DVec3::new(0.41, 0.0, 0.0));
+        let ends = if flip { [p3, b] } else { [b, p3] };
+        let compliance = if compliant { 3e-4 } else { 0.0 };
+        solver
+            .sticks
+            .push(ends, 0.1, compliance, StickKind::Equal, f64::INFINITY, 0);
+        if past {
+            let mut link = |from: u32, to: DVec3, w: f64| {
+                let p = solver.add_particle(to, w);
+                solver
+                    .sticks
+                    .push([from, p], 0.1, 0.0, StickKind::Equal, f64::INFINITY, 0);
+                p
+            };
+            let q1 = link(b, DVec3::new(0.5, -0.03, 0.0), 0.3);
+            link(q1, DVec3::new(0.52, -0.14, 0.01), 3.0);
+            link(b, DVec3::new(0.4, -0.05, 0.02), 1.0);
+        }
+        solver.organize();
+        solver
+    }
+
+    /// One pass of `solver`'s closed tree (SHAKE along directions turned from the current ones,
+    /// or Gauss–Newton), every multiplier starting at `lambda`, against the dense step.
+    fn one_pass_matches_dense(solver: &Solver, shake: bool, lambda: f64) {
+        let set = solver.islands.lines().trees.clone();
+        let tree = &set.trees[0];
+        let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
+        let view = TreeView {
+            particle: &set.particle[nodes.clone()],
+            stick: &set.stick[nodes.clone()],
+            parent: &set.parent[nodes.clone()],
+            offset: tree.nodes.start,
+            closing: tree.closing.map(|t| t as usize),
+        };
+        let x = solver.particles.position.clone();
+        let ends: Vec<[usize; 2]> = solver
+            .sticks
+            .ends()
+            .iter()
+            .map(|e| e.map(|p| p as usize))
+            .collect();
+        let r: Vec<DVec3> = (0..ends.len())
+            .map(|k| {
+                let n = (x[ends[k][1]] - x[ends[k][0]]).normalize();
+                let turn = DVec3::new(0.05, -0.03, 0.04) * ((k % 3) as f64 - 1.0);
+                if shake {
+                    (n + turn + DVec3::new(0.0, 0.02, -0.03)).normalize()
+                } else {
+                    n
+                }
+            })
+            .collect();
+        let mut s = vec![Node::default(); view.particle.len()];
+        for t in 1..s.len() {
+            s[t].start = r[view.stick[t] as usize];
+        }
+        s[0].mode = if shake {
+            LineMode::Shake
+        } else {
+            LineMode::Project
+        };
+        let warm: Vec<f64> = (0..ends.len())
+            .map(|k| lambda * (1.0 + 0.1 * k as f64))
+            .collect();
+        let (mut position, mut previous, mut after) = (x.clone(), x.clone(), warm.clone());
+        let inv_h2 = 4096.0;
+        let active: Vec<bool>;
+        {
+            let (position, previous) = (
+                SharedSlice::new(&mut position),
+                SharedSlice::new(&mut previous),
+            );
+            let lambda = SharedSlice::new(&mut after);
+            let solve = TreeSolve {
+                position: &position,
+                previous: &previous,
+                mirror: None,
+                lambda: &lambda,
+                inverse_mass: &solver.particles.inverse_mass,
+                sticks: &solver.sticks,
+                inv_h2,
+                shake,
+                first_round: true,
+            };
+            solve.check(&view);
+            // SAFETY: this test alone holds the slices; `check` passed; the root and the closing
+            // node are the only particles that may be immovable.
+            unsafe {
+                active = (0..ends.len())
+                    .map(|k| {
+                        let t = (1..s.len()).find(|&t| view.stick[t] as usize == k);
+                        solve.row(&view, t.unwrap()).active
+                    })
+                    .collect();
+                solve.forward::<false, true>(&view, &mut s);
+                solve.close(&view, &mut s);
+                solve.backward(&view, &mut s);
+            }
+        }
+        let (want_dx, want_dl) = kkt::dense::step_along(
+            &kkt::dense::System {
+                x: &x,
+                inverse_mass: &solver.particles.inverse_mass,
+                ends: &ends,
+                lambda: &warm,
+                rest: &solver.sticks.rest_length,
+                compliance: &solver.sticks.compliance,
+                active: &active,
+                inv_h2,
+            },
+            &r,
+        );
+        let scale = want_dx.iter().map(|d| d.length()).fold(0.0, f64::max);
+        for j in 0..x.len() {
+            let got = position[j] - x[j];
+            assert!(
+                (got - want_dx[j]).length() < 1e-7 * scale,
+                "shake {shake}, λ {lambda}: particle {j}: Δx {got} against {}",
+                want_dx[j]
+            );
+        }
+        for k in 0..ends.len() {
+            let (got, want) = (after[k] - warm[k], want_dl[k]);
+            assert!(
+                (got - want).abs() < 1e-7 * want.abs().max(1e-3),
+                "shake {shake}, λ {lambda}: stick {k}: Δλ {got} against {want}"
+            );
+        }
     }
 }
