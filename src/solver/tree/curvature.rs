@@ -61,7 +61,7 @@ impl TreeSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`]; `view` passed [`TreeSolve::check`], no particle but the
-    /// root is immovable, nothing has moved the tree this substep, and `c` is as long as `s`.
+    /// root (and the closing node, see [`closure`](super::closure)) is immovable, nothing has moved the tree this substep, and `c` is as long as `s`.
     pub(super) unsafe fn curvature_pass(
         &self,
         view: &TreeView,
@@ -164,7 +164,9 @@ impl TreeSolve<'_, '_> {
                 let (reduced, up) = kkt::reduce(&link, &c.get_unchecked(t).below);
                 let node = c.get_unchecked_mut(t);
                 node.reduced = reduced;
-                let carried_up = closing_link.map(|_| {
+                // (Every node of a closed tree, also those before the closing node's turn: they
+                // carry nothing, and their load must say so — not what the scratch held.)
+                let carried_up = view.closing.map(|_| {
                     let load_up;
                     (node.load, load_up) = reduced.carry(link.normal, node.carried);
                     load_up
