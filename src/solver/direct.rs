@@ -64,9 +64,10 @@
 //! the start of a substep (an edited rest length, a spawn) are first corrected on the start
 //! positions too, so the correction does not become velocity (a free L-shaped rope whose links
 //! are shortened by 10 %: 0 instead of 2.4 m/s, `tests/direct.rs`). Not where lines meet at
-//! forks (trees with three or more pins, meshes forced onto lines): there the block Gauss–Seidel over
-//! lines leaves such violations every substep, and lines correcting one shared particle's start
-//! position in turn fed each other's errors (a Y-shaped rope stretched 809 % instead of 22 %).
+//! forks (trees with three or more pins, meshes forced onto lines): there the block
+//! Gauss–Seidel over lines leaves such violations every substep, and lines correcting one
+//! shared particle's start position in turn fed each other's errors (a Y-shaped rope stretched
+//! 809 % instead of 22 %).
 //! Trees with at most two pins are solved whole instead (see [`tree`](super::tree)).
 //!
 //! ```

@@ -26,8 +26,9 @@
 //!
 //! and every node's substitution takes it in (`v += Δλ_k v¹`, `β += Δλ_k β¹`) before the usual
 //! substitution from the root moves the particles. One extra 3 × 3 solve per node and a
-//! substitution of the nodes up to `c`: O(n), exact for the linearised system (checked against the
-//! dense one below). Under SHAKE the same equations hold along the start directions.
+//! substitution of the nodes up to `c`: O(n), exact for the linearised system (checked
+//! against the dense one below). Under SHAKE the same equations hold along the start
+//! directions.
 //!
 //! A rigid path between the two pulled to within 0.1 % of its length makes the loop's system
 //! singular (as for a line between two pins): the tree is swept for that substep. Curvature and

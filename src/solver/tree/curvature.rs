@@ -61,7 +61,8 @@ impl TreeSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`]; `view` passed [`TreeSolve::check`], no particle but the
-    /// root (and the closing node, see [`closure`](super::closure)) is immovable, nothing has moved the tree this substep, and `c` is as long as `s`.
+    /// root (and the closing node, see [`closure`](super::closure)) is immovable, nothing has
+    /// moved the tree this substep, and `c` is as long as `s`.
     pub(super) unsafe fn curvature_pass(
         &self,
         view: &TreeView,
