@@ -382,6 +382,12 @@ pub(crate) mod dense {
         (dx, solution[nx..].to_vec())
     }
 
+    /// Every stick's ends in `solver`, as indices.
+    pub(crate) fn ends_of(solver: &crate::solver::Solver) -> Vec<[usize; 2]> {
+        let ends = solver.sticks.ends().iter();
+        ends.map(|e| e.map(|p| p as usize)).collect()
+    }
+
     /// Asserts that `solver`'s particles moved from `x` to `position` and its multipliers from
     /// `warm` to `lambda` by the dense system's Newton step (every stick in the system), within
     /// `tolerance` relative to the largest move and to `|Δλ|` (at least `lambda_floor`).
@@ -392,12 +398,7 @@ pub(crate) mod dense {
         inv_h2: f64,
         (tolerance, lambda_floor): (f64, f64),
     ) {
-        let ends: Vec<[usize; 2]> = solver
-            .sticks
-            .ends()
-            .iter()
-            .map(|e| e.map(|p| p as usize))
-            .collect();
+        let ends = ends_of(solver);
         let (want_dx, want_dl) = newton_step(&System {
             x,
             inverse_mass: &solver.particles.inverse_mass,

@@ -995,3 +995,60 @@ fn unit_and_length(d: DVec3, k: usize) -> (DVec3, f64) {
         (coincident_direction(k), length)
     }
 }
+
+/// What the tree solve's unit tests share.
+#[cfg(test)]
+mod test_support {
+    use super::{TreeSet, TreeSolve, TreeView};
+    use crate::solver::Solver;
+    use crate::solver::shared::SharedSlice;
+    use glam::DVec3;
+
+    /// `1/h²` of the tests' passes.
+    pub(super) const INV_H2: f64 = 4096.0;
+
+    /// The view of `set`'s first tree (its closing node, if it has one, taken as immovable).
+    pub(super) fn first_view(set: &TreeSet) -> TreeView<'_> {
+        let tree = &set.trees[0];
+        let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
+        TreeView {
+            particle: &set.particle[nodes.clone()],
+            stick: &set.stick[nodes.clone()],
+            parent: &set.parent[nodes],
+            offset: tree.nodes.start,
+            closing: tree.closing.map(|t| t as usize),
+        }
+    }
+
+    /// Runs `pass` on a solve over copies of `solver`'s positions (as both current and start
+    /// positions) and of `lambda`; returns the positions and multipliers it leaves.
+    pub(super) fn run_pass(
+        solver: &Solver,
+        lambda: &[f64],
+        shake: bool,
+        pass: impl FnOnce(&TreeSolve<'_, '_>),
+    ) -> (Vec<DVec3>, Vec<f64>) {
+        let mut position = solver.particles.position.clone();
+        let mut previous = position.clone();
+        let mut lambda = lambda.to_vec();
+        {
+            let (position, previous) = (
+                SharedSlice::new(&mut position),
+                SharedSlice::new(&mut previous),
+            );
+            let lambda = SharedSlice::new(&mut lambda);
+            pass(&TreeSolve {
+                position: &position,
+                previous: &previous,
+                mirror: None,
+                lambda: &lambda,
+                inverse_mass: &solver.particles.inverse_mass,
+                sticks: &solver.sticks,
+                inv_h2: INV_H2,
+                shake,
+                first_round: true,
+            });
+        }
+        (position, lambda)
+    }
+}

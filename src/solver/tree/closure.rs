@@ -147,9 +147,9 @@ impl TreeSolve<'_, '_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Node, TreeCurvature, TreeSolve, TreeView};
+    use super::super::test_support::{INV_H2, first_view, run_pass};
+    use super::super::{Node, TreeCurvature};
     use crate::solver::direct::LineMode;
-    use crate::solver::shared::SharedSlice;
     use crate::solver::{Solver, StickKind, kkt};
     use glam::DVec3;
 
@@ -202,22 +202,13 @@ mod tests {
     /// λ = 0, or with `curvature` a curvature pass from warm-started multipliers.
     fn closed_pass_matches_dense(solver: &Solver, curvature: bool) {
         let set = solver.islands.lines().trees.clone();
-        let tree = &set.trees[0];
-        assert!(tree.closing.is_some(), "two pins: a closed tree");
+        let view = first_view(&set);
         // (The root is the first pin; the closing node the second, still immovable.)
-        let closing = tree.closing.unwrap() as usize + tree.nodes.start as usize;
+        let closing = view.closing.expect("two pins: a closed tree");
         assert_eq!(
-            solver.particles.inverse_mass[set.particle[closing] as usize],
+            solver.particles.inverse_mass[view.particle[closing] as usize],
             0.0
         );
-        let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
-        let view = TreeView {
-            particle: &set.particle[nodes.clone()],
-            stick: &set.stick[nodes.clone()],
-            parent: &set.parent[nodes.clone()],
-            offset: tree.nodes.start,
-            closing: tree.closing.map(|t| t as usize),
-        };
         let sticks = solver.sticks.len();
         let warm: Vec<f64> = (0..sticks)
             .map(|k| match (curvature, k) {
@@ -231,27 +222,7 @@ mod tests {
             node.warm = warm[k as usize];
         }
         let mut c = vec![TreeCurvature::default(); s.len()];
-        let x = solver.particles.position.clone();
-        let (mut position, mut previous) = (x.clone(), x.clone());
-        let mut lambda = vec![0.0; sticks];
-        let inv_h2 = 4096.0;
-        {
-            let (position, previous) = (
-                SharedSlice::new(&mut position),
-                SharedSlice::new(&mut previous),
-            );
-            let lambda = SharedSlice::new(&mut lambda);
-            let solve = TreeSolve {
-                position: &position,
-                previous: &previous,
-                mirror: None,
-                lambda: &lambda,
-                inverse_mass: &solver.particles.inverse_mass,
-                sticks: &solver.sticks,
-                inv_h2,
-                shake: false,
-                first_round: true,
-            };
+        let (position, lambda) = run_pass(solver, &vec![0.0; sticks], false, |solve| {
             solve.check(&view);
             // SAFETY: this test alone holds the slices; `check` passed; the closing node and
             // the root are the only immovable particles.
@@ -264,13 +235,13 @@ mod tests {
                     solve.backward(&view, &mut s);
                 }
             }
-        }
+        });
         // (With λ = 0 the full Newton step is Gauss–Newton's: no curvature term.)
         kkt::dense::assert_newton_step(
             solver,
-            (&x, &position),
+            (&solver.particles.position, &position),
             (&warm, &lambda),
-            inv_h2,
+            INV_H2,
             (1e-7, 1e-3),
         );
     }
@@ -362,22 +333,9 @@ mod tests {
     /// or Gauss–Newton), every multiplier starting at `lambda`, against the dense step.
     fn one_pass_matches_dense(solver: &Solver, shake: bool, lambda: f64) {
         let set = solver.islands.lines().trees.clone();
-        let tree = &set.trees[0];
-        let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
-        let view = TreeView {
-            particle: &set.particle[nodes.clone()],
-            stick: &set.stick[nodes.clone()],
-            parent: &set.parent[nodes.clone()],
-            offset: tree.nodes.start,
-            closing: tree.closing.map(|t| t as usize),
-        };
-        let x = solver.particles.position.clone();
-        let ends: Vec<[usize; 2]> = solver
-            .sticks
-            .ends()
-            .iter()
-            .map(|e| e.map(|p| p as usize))
-            .collect();
+        let view = first_view(&set);
+        let x = &solver.particles.position;
+        let ends = kkt::dense::ends_of(solver);
         let r: Vec<DVec3> = (0..ends.len())
             .map(|k| {
                 let n = (x[ends[k][1]] - x[ends[k][0]]).normalize();
@@ -401,26 +359,8 @@ mod tests {
         let warm: Vec<f64> = (0..ends.len())
             .map(|k| lambda * (1.0 + 0.1 * k as f64))
             .collect();
-        let (mut position, mut previous, mut after) = (x.clone(), x.clone(), warm.clone());
-        let inv_h2 = 4096.0;
-        let active: Vec<bool>;
-        {
-            let (position, previous) = (
-                SharedSlice::new(&mut position),
-                SharedSlice::new(&mut previous),
-            );
-            let lambda = SharedSlice::new(&mut after);
-            let solve = TreeSolve {
-                position: &position,
-                previous: &previous,
-                mirror: None,
-                lambda: &lambda,
-                inverse_mass: &solver.particles.inverse_mass,
-                sticks: &solver.sticks,
-                inv_h2,
-                shake,
-                first_round: true,
-            };
+        let mut active = Vec::new();
+        let (position, after) = run_pass(solver, &warm, shake, |solve| {
             solve.check(&view);
             // SAFETY: this test alone holds the slices; `check` passed; the root and the closing
             // node are the only particles that may be immovable.
@@ -435,17 +375,17 @@ mod tests {
                 solve.close(&view, &mut s);
                 solve.backward(&view, &mut s);
             }
-        }
+        });
         let (want_dx, want_dl) = kkt::dense::step_along(
             &kkt::dense::System {
-                x: &x,
+                x,
                 inverse_mass: &solver.particles.inverse_mass,
                 ends: &ends,
                 lambda: &warm,
                 rest: &solver.sticks.rest_length,
                 compliance: &solver.sticks.compliance,
                 active: &active,
-                inv_h2,
+                inv_h2: INV_H2,
             },
             &r,
         );

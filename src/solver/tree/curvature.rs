@@ -272,9 +272,9 @@ impl TreeSolve<'_, '_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Node, TreeSolve, TreeView};
+    use super::super::Node;
+    use super::super::test_support::{INV_H2, first_view, run_pass};
     use super::TreeCurvature;
-    use crate::solver::shared::SharedSlice;
     use crate::solver::{Solver, StickKind, kkt};
     use glam::DVec3;
 
@@ -307,14 +307,7 @@ mod tests {
         }
         solver.organize();
         let set = solver.islands.lines().trees.clone();
-        let nodes = set.trees[0].nodes.start as usize..set.trees[0].nodes.end as usize;
-        let view = TreeView {
-            particle: &set.particle[nodes.clone()],
-            stick: &set.stick[nodes.clone()],
-            parent: &set.parent[nodes.clone()],
-            offset: set.trees[0].nodes.start,
-            closing: None,
-        };
+        let view = first_view(&set);
         let sticks = solver.sticks.len();
         let warm: Vec<f64> = (0..sticks).map(|k| -0.5 - 0.3 * k as f64).collect();
         let mut s = vec![Node::default(); view.particle.len()];
@@ -322,37 +315,17 @@ mod tests {
             node.warm = warm[k as usize];
         }
         let mut c = vec![TreeCurvature::default(); s.len()];
-        let x = solver.particles.position.clone();
-        let (mut position, mut previous) = (x.clone(), x.clone());
-        let mut lambda = vec![0.0; sticks];
-        let inv_h2 = 4096.0;
-        {
-            let (position, previous) = (
-                SharedSlice::new(&mut position),
-                SharedSlice::new(&mut previous),
-            );
-            let lambda = SharedSlice::new(&mut lambda);
-            let solve = TreeSolve {
-                position: &position,
-                previous: &previous,
-                mirror: None,
-                lambda: &lambda,
-                inverse_mass: &solver.particles.inverse_mass,
-                sticks: &solver.sticks,
-                inv_h2,
-                shake: true,
-                first_round: true,
-            };
+        let (position, lambda) = run_pass(&solver, &vec![0.0; sticks], true, |solve| {
             solve.check(&view);
             // SAFETY: this test alone holds the slices; `check` passed; only the root is pinned.
             unsafe { solve.curvature_pass(&view, &s, &mut c) };
-        }
+        });
         // (Within the regularisation of `D`, 10⁻⁹ relative, times the system's conditioning.)
         kkt::dense::assert_newton_step(
             &solver,
-            (&x, &position),
+            (&solver.particles.position, &position),
             (&warm, &lambda),
-            inv_h2,
+            INV_H2,
             (1e-6, 1.0),
         );
     }
