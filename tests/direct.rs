@@ -185,6 +185,174 @@ fn extreme_loads_swing_unstretched() {
     }
 }
 
+/// A small deterministic random source (xorshift64) for scanned scenes.
+struct Scan(u64);
+
+impl Scan {
+    /// A number in `[0, 1)`.
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// An integer in `0..n`.
+    fn below(&mut self, n: usize) -> usize {
+        ((self.next() * n as f64) as usize).min(n - 1)
+    }
+
+    /// A random unit vector.
+    fn unit(&mut self) -> DVec3 {
+        loop {
+            let v = DVec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0;
+            if (0.01..1.0).contains(&v.length_squared()) {
+                return v.normalize();
+            }
+        }
+    }
+}
+
+/// Scene `seed` of [`random_heavy_chains_and_trees_hit_hard_stay_unstretched`]: 4–43
+/// particles joined by 5 cm sticks into a random chain or tree (each particle hung off a random
+/// earlier one, in a random direction), 15 % of them `10¹–10^heaviest` times heavier, rigid
+/// or (30 %) rope links, pinned at the first particle and (80 %) at a second one whose path to
+/// the first is not taut; in half the scenes every movable particle is kicked by up to `kick`
+/// m/s. Returns the solver (organized) and the energy scale `m·g·L` (total mass, total length).
+fn random_heavy_scene(seed: u64, heaviest: f64, kick: f64) -> Option<(Solver, f64)> {
+    const LINK: f64 = 0.05;
+    let mut r = Scan(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(12345));
+    let n = 4 + r.below(40);
+    let chain = r.next() < 0.5;
+    let kind = if r.next() < 0.3 {
+        StickKind::AtMost
+    } else {
+        StickKind::Equal
+    };
+    let mut solver = Solver::default();
+    let mut depth = vec![0usize];
+    solver.add_particle(DVec3::ZERO, 0.0);
+    solver.pin(0, DVec3::ZERO);
+    for i in 1..n {
+        let parent = if chain { i - 1 } else { r.below(i) };
+        let at = solver.particles.position[parent] + r.unit() * LINK;
+        let heavy = r.next() < 0.15;
+        let w = if heavy {
+            10f64.powf(-(1.0 + (heaviest - 1.0) * r.next()))
+        } else {
+            1.0
+        };
+        solver.add_particle(at, w);
+        depth.push(depth[parent] + 1);
+        let ends = [parent as u32, i as u32];
+        solver.sticks.push(ends, LINK, 0.0, kind, f64::INFINITY, 0);
+    }
+    if r.next() < 0.8 {
+        let second = 1 + r.below(n - 1);
+        let at = solver.particles.position[second];
+        if at.length() > 0.95 * depth[second] as f64 * LINK {
+            return None;
+        }
+        solver.particles.inverse_mass[second] = 0.0;
+        solver.pin(second as u32, at);
+    }
+    solver.organize();
+    if r.next() < 0.5 {
+        let h = config(0.0, true).substep();
+        for i in 0..n {
+            if solver.particles.inverse_mass[i] > 0.0 {
+                let v = r.unit() * (kick * r.next());
+                solver.particles.previous[i] = solver.particles.position[i] - v * h;
+            }
+        }
+    }
+    let p = &solver.particles;
+    let mass: f64 = (0..n)
+        .filter(|&i| p.inverse_mass[i] > 0.0)
+        .map(|i| 1.0 / p.inverse_mass[i])
+        .sum();
+    Some((solver, mass * G * LINK * (n - 1) as f64))
+}
+
+/// Largest stretch of a rope link, largest strain of any other stick.
+fn max_stretch_or_strain(solver: &Solver) -> f64 {
+    (0..solver.sticks.len())
+        .map(|i| {
+            let strain = solver.sticks.strain(i, &solver.particles);
+            match solver.sticks.kind[i] {
+                StickKind::AtMost => strain.max(0.0),
+                _ => strain.abs(),
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Random chains and trees with loads up to 10⁴ times a link's mass, one or two pins, rigid or
+/// rope links, kicked by up to 30 m/s (see [`random_heavy_scene`]), 2 s at 8 × 1 without
+/// damping: every scene finite, its largest strain below 1 %, and its energy never more than
+/// 10 % of its scale (`m·g·L` plus the kick's kinetic energy) above its value after the first
+/// step. Measured (600 seeds, 506 scenes built): largest strain 1.6·10⁻⁵, energy at most 0.5 %
+/// above. Before curvature and full Newton passes ran up to a prediction ten links' lengths
+/// off (`CURVATURE_BELOW` 0.1 instead of 10, `solver::direct`), 115 of these scenes failed,
+/// some stretched 10³⁰ times their length; before a warm start that reaches too far was taken
+/// back (`WARM_START_REACH`), scene 579 gained 19 % (a caught load thrown back up).
+/// `SCAN_SCENES`, `SCAN_KICK` (m/s) and `SCAN_HEAVIEST` (the exponent) widen it; with kicks
+/// of 100 m/s a few scenes in a thousand still fail (see `CURVATURE_BELOW`).
+#[test]
+fn random_heavy_chains_and_trees_hit_hard_stay_unstretched() {
+    let var = |name: &str, default: f64| {
+        std::env::var(name)
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(default)
+    };
+    let scenes = var("SCAN_SCENES", 600.0) as u64;
+    let (kick, heaviest) = (var("SCAN_KICK", 30.0), var("SCAN_HEAVIEST", 4.0));
+    let config = config(0.0, true);
+    let h = config.substep();
+    let (mut built, mut worst, mut worst_rise) = (0, 0.0f64, f64::MIN);
+    let mut failed = Vec::new();
+    for seed in 1..=scenes {
+        let Some((mut solver, scale)) = random_heavy_scene(seed, heaviest, kick) else {
+            continue;
+        };
+        solver.step(&config);
+        let start = energy(&solver, h);
+        let scale = scale + kinetic_energy(&solver, h);
+        let (mut strain, mut highest) = (0.0f64, f64::MIN);
+        for _ in 1..128 {
+            solver.step(&config);
+            strain = strain.max(max_stretch_or_strain(&solver));
+            highest = highest.max(energy(&solver, h));
+        }
+        let rise = (highest - start) / scale;
+        let finite = solver.particles.all_finite();
+        if !finite || strain >= 0.01 || rise >= 0.1 {
+            failed.push(format!(
+                "{seed}: strain {strain:.2e}, rise {rise:.2e}, finite {finite}"
+            ));
+        }
+        (built, worst, worst_rise) = (built + 1, worst.max(strain), worst_rise.max(rise));
+    }
+    println!(
+        "random heavy chains and trees: {built} scenes, max strain {:.2e} %, energy at most {:+.2} % of its scale above its start; {} failed",
+        worst * 100.0,
+        worst_rise * 100.0,
+        failed.len()
+    );
+    assert!(failed.is_empty(), "failed scenes: {failed:#?}");
+    assert!(built >= scenes as usize / 2, "only {built} scenes built");
+}
+
+/// Kinetic energy from the velocities over the last substep `h`.
+fn kinetic_energy(solver: &Solver, h: f64) -> f64 {
+    let p = &solver.particles;
+    (0..p.len())
+        .filter(|&i| p.inverse_mass[i] > 0.0)
+        .map(|i| 0.5 * ((p.position[i] - p.previous[i]) / h).length_squared() / p.inverse_mass[i])
+        .sum()
+}
+
 /// A weight `weight` × a link hung from two pins 0.8 m apart by a V of 64 links of 2 cm and
 /// kind `kind` (straight, the weight 0.5 m below the pins): one line pinned at both ends.
 fn sling(weight: f64, kind: StickKind) -> Solver {

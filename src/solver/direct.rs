@@ -175,12 +175,29 @@ pub(crate) fn tension_stiffness(lambda: f64, length: f64) -> f64 {
     (-lambda).max(0.0) / length.max(1e-12)
 }
 
-/// A curvature pass (see [`curvature`]) runs only where the prediction violates the line by
-/// less than this (largest `|C|/L`): under violent motion its linearisation, with the last
-/// substep's multipliers, is poor. Measured: a 10-link rope whose pin is teleported a
-/// kilometre (`tests/hard_cases.rs`) kept 60–680 J whirling instead of settling at 6 J
-/// without this bound; the whipping chains of the report stay below it.
-pub const CURVATURE_BELOW: f64 = 0.1;
+/// Curvature passes, and the full Newton passes that take over where Gauss–Newton does not
+/// converge (see [`curvature`]), run only where the prediction violates the line or tree by less
+/// than this (largest `|C|/L`): ten times a link's length. Beyond it the prediction is a jump
+/// rather than motion — the 10-link rope of `tests/hard_cases.rs` whose pin is teleported a
+/// kilometre, 125 m per substep — and Gauss–Newton's unconverged passes take most of the jump's
+/// energy out; with full Newton passes there too, that rope kept 2600–4600 J whirling at 4 s
+/// instead of settling (about −1 J), beyond the hard case's bound on its energy after 4 s.
+///
+/// Below it, they are what keeps heavy loads hit hard from blowing up: far from the
+/// constraints Gauss–Newton wanders, and its active set cycles where rope links snap taut.
+/// Measured with `random_heavy_chains_and_trees_hit_hard_stay_unstretched` (`tests/direct.rs`)
+/// run wide — 2109 random chains and trees per row, loads up to 10⁴ times a link, one or two
+/// pins, kicks up to 2 / 10 / 30 / 100 m/s, 2 s at 8 × 1 — with the bound at 0.1 (the value
+/// before, where the report's whipping chains stay): 103 / 270 / 472 / 635 scenes failed
+/// (strain beyond 1 % or energy up by 10 % of its scale), some stretched 10⁸⁰ times their
+/// length; now 0 / 0 / 0 / 2 (with [`WARM_START_REACH`] and the trees' second try, see
+/// `tree`'s `curvature`; loads up to 10⁵ kicked by 10 m/s: 556 → 0). A kicked weight on a V
+/// of 64 rope or rigid links between two pins (weights 1–10⁴×, kicks 5–51 m/s, a scratch
+/// scan of 150): 38 stretched, up to 4920 %, now none beyond 10⁻⁹. The report's 200-link
+/// chain swinging takes 5085 instead of 5367 Newton passes. Without any bound the teleported
+/// rope keeps whirling; the hard case is chaotic in this constant (bounds of 7, 10 and 20 pass
+/// it, 15 and 30 do not; at 10 its undamped rope has −1.0 J at 4 s, −4.5 J at 0.1).
+pub const CURVATURE_BELOW: f64 = 10.0;
 
 /// Relative regularisation of the diagonal (keeps a taut straight chain between pins regular).
 const REGULARISATION: f64 = 1e-9;
@@ -260,6 +277,21 @@ enum Start {
 /// after its 199 failures; it never reaches the bound, nor does the rope yanked a kilometre in
 /// `tests/hard_cases.rs`: their trajectories are unchanged).
 pub const CURVATURE_AFTER_SHAKE_ABOVE: f64 = 12.0;
+
+/// A warm start (the last substep's multipliers, see the [module docs](self)) is taken back
+/// before the first pass where it moves the particles of a line or tree farther (mass-weighted)
+/// than this many times their distance from the prediction back to where the substep started.
+/// The projection itself never moves them farther than that distance — the start positions
+/// satisfy the constraints, and the projection is the nearest point that does — so such a warm
+/// start is no estimate of this substep's multipliers but the impulse of the last one's: a load
+/// caught by a rope, whose catch it repeats. Measured on scene 579 of
+/// `random_heavy_chains_and_trees_hit_hard_stay_unstretched` (`tests/direct.rs`): a 2700× load
+/// falling at 2.5 m/s was caught by its rope in one substep and thrown back up at 3.2 m/s by
+/// the next (SHAKE from that warm start): +4950 J, 19 % of the scene's energy scale; with the
+/// warm start taken back its energy never rose. At rest the ratio is 1 (the warm start undoes
+/// the substep's fall); the report's swinging chains and cloth by lines never reach 2 (the
+/// same Newton passes, to the bit).
+pub const WARM_START_REACH: f64 = 2.0;
 
 /// Gauss–Newton passes a projection takes before full Newton passes (with the constraints'
 /// curvature, see [`curvature`]) take over, where they can. Gauss–Newton does not converge at
@@ -613,8 +645,8 @@ impl LineSolve<'_, '_> {
     ) -> u32 {
         // SAFETY: as for `start` (this function's contract).
         unsafe {
-            // (Both only where the prediction is within `CURVATURE_BELOW`: their linearisation is
-            // poor under violent motion.)
+            // (Both only where the prediction is within `CURVATURE_BELOW`: beyond, it is a jump,
+            // whose energy Gauss–Newton's passes take out.)
             let root = root.filter(|_| begun.predicted < CURVATURE_BELOW);
             let curving = root.filter(|_| self.shake && start != Start::Restarted);
             let mut passes = 0;
@@ -812,9 +844,9 @@ impl LineSolve<'_, '_> {
 
     /// Start of the substep: the start directions, the mode (SHAKE when every stick's predicted
     /// turn is small; a sweep when a rigid segment between immovable particles is taut), and
-    /// the warm start `λ = λ_last` applied along the start directions (SHAKE only) — one
-    /// traversal. `shake`: SHAKE may be used this substep. Returns the largest `|C|/L` before
-    /// the warm start.
+    /// the warm start `λ = λ_last` applied along the start directions (SHAKE only; taken back
+    /// where it reaches too far, see [`WARM_START_REACH`]) — one traversal. `shake`: SHAKE may
+    /// be used this substep. Returns the largest `|C|/L` before the warm start.
     ///
     /// # Safety
     /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`] (every index below is
@@ -833,6 +865,8 @@ impl LineSolve<'_, '_> {
             // the sums.)
             let held = self.w(line.p(0)) <= 0.0 && self.w(line.p(m)) <= 0.0;
             let mut before = DVec3::ZERO; // s_{k−1} λ_{k−1}
+            // (Σ m|Δx|² of the warm start and Σ m|x* − x̃|², see [`WARM_START_REACH`].)
+            let (mut reach, mut distance): (f64, f64) = (0.0, 0.0);
             // The last immovable particle and the rest length of the rigid sticks since (∞ once a
             // stick that can stretch is passed).
             let (mut anchor, mut anchor_rest): (Option<DVec3>, f64) = (None, 0.0);
@@ -910,10 +944,16 @@ impl LineSolve<'_, '_> {
                     v.predicted.set_unchecked(line.particle_offset + j, x);
                 }
                 if w > 0.0 {
-                    self.position.set_unchecked(p, x + (before - after) * w);
+                    let moved = before - after;
+                    self.position.set_unchecked(p, x + moved * w);
+                    reach += moved.length_squared() * w;
+                    distance += (self.previous.get_unchecked(p) - x).length_squared() / w;
                 }
                 before = after;
                 x = x_next;
+            }
+            if reach > WARM_START_REACH * WARM_START_REACH * distance {
+                self.take_back(line);
             }
             let stable = !held || stiff < SHAKE_STIFFNESS_BELOW;
             let mode = if taut {

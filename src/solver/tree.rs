@@ -381,8 +381,8 @@ impl TreeSolve<'_, '_> {
             } else if self.first_round {
                 // (Not right after a fallback, see [`LineMode::FellBack`].)
                 let shake = self.shake && s[0].mode != LineMode::FellBack;
-                let keeps =
-                    curvature.len() == s.len() && self.mirror.is_none() && self.curvable(&view);
+                // (For the curvature passes, and to measure the warm start's reach.)
+                let keeps = curvature.len() == s.len() && self.mirror.is_none();
                 if keeps {
                     self.keep_prediction(&view, curvature);
                 }
@@ -396,6 +396,9 @@ impl TreeSolve<'_, '_> {
                     begun = self.begin(&view, s, shake);
                 }
                 predicted = begun.predicted;
+                if keeps && s[0].mode == LineMode::Shake && self.overreaches(&view, curvature) {
+                    self.take_back(&view, s);
+                }
             }
             if s[0].mode == LineMode::Sweep {
                 self.sweep(&view, s);
@@ -408,8 +411,8 @@ impl TreeSolve<'_, '_> {
                 && predicted < CURVATURE_BELOW
                 && curvature.len() == s.len()
                 && self.curvable(&view);
-            let curvature = rescuable.then_some(curvature);
-            let passes = if s[0].mode == LineMode::Shake {
+            let rescue = rescuable.then_some(&mut *curvature);
+            let mut passes = if s[0].mode == LineMode::Shake {
                 let (passes, converged) =
                     self.newton(&view, s, SHAKE_PASSES, SHAKE_CONTRACTION, predicted);
                 if converged {
@@ -417,11 +420,15 @@ impl TreeSolve<'_, '_> {
                 } else {
                     self.take_back(&view, s);
                     s[0].mode = LineMode::FellBack;
-                    passes + self.project(&view, s, curvature, f64::INFINITY)
+                    passes + self.project(&view, s, rescue, f64::INFINITY)
                 }
             } else {
-                self.project(&view, s, curvature, predicted)
+                self.project(&view, s, rescue, predicted)
             };
+            // (Projected substeps only: SHAKE's result is no projection, nor meant to be one.)
+            if rescuable && s[0].mode != LineMode::Shake {
+                passes += self.second_try(&view, curvature);
+            }
             for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
                 node.warm = self.lambda.get(k as usize);
             }
@@ -463,7 +470,7 @@ impl TreeSolve<'_, '_> {
             );
             passes += taken;
             if !converged {
-                passes += self.full_newton(view, curvature, MAX_PASSES - passes);
+                passes += self.full_newton(view, curvature, MAX_PASSES - passes).0;
             }
             passes
         }
