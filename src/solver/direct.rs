@@ -279,8 +279,9 @@ enum Start {
 pub const CURVATURE_AFTER_SHAKE_ABOVE: f64 = 12.0;
 
 /// A warm start (the last substep's multipliers, see the [module docs](self)) is taken back
-/// before the first pass where it moves the particles of a line or tree farther (mass-weighted)
-/// than this many times their distance from the prediction back to where the substep started.
+/// before the first pass where it moves the particles of a line alone in its island, or of a
+/// tree, farther (mass-weighted) than this many times their distance from the prediction back
+/// to where the substep started.
 /// The projection itself never moves them farther than that distance — the start positions
 /// satisfy the constraints, and the projection is the nearest point that does — so such a warm
 /// start is no estimate of this substep's multipliers but the impulse of the last one's: a load
@@ -865,7 +866,10 @@ impl LineSolve<'_, '_> {
             // the sums.)
             let held = self.w(line.p(0)) <= 0.0 && self.w(line.p(m)) <= 0.0;
             let mut before = DVec3::ZERO; // s_{k−1} λ_{k−1}
-            // (Σ m|Δx|² of the warm start and Σ m|x* − x̃|², see [`WARM_START_REACH`].)
+            // (Σ m|Δx|² of the warm start and Σ m|x* − x̃|², see [`WARM_START_REACH`]; lines alone
+            // in their island only: where lines share particles, the start of a line's substep
+            // does not satisfy its constraints — the other lines moved it — and the measure
+            // cost the cloth by lines 9.5 % of its instructions.)
             let (mut reach, mut distance): (f64, f64) = (0.0, 0.0);
             // The last immovable particle and the rest length of the rigid sticks since (∞ once a
             // stick that can stretch is passed).
@@ -939,15 +943,18 @@ impl LineSolve<'_, '_> {
                         f64::INFINITY
                     };
                 }
+                let moved = before - after;
                 if self.alone {
-                    // (The prediction, for full Newton passes: see `curvature`.)
+                    // (The prediction, for full Newton passes: see `curvature`; and the warm
+                    // start's reach.)
                     v.predicted.set_unchecked(line.particle_offset + j, x);
+                    if w > 0.0 {
+                        reach += moved.length_squared() * w;
+                        distance += (self.previous.get_unchecked(p) - x).length_squared() / w;
+                    }
                 }
                 if w > 0.0 {
-                    let moved = before - after;
                     self.position.set_unchecked(p, x + moved * w);
-                    reach += moved.length_squared() * w;
-                    distance += (self.previous.get_unchecked(p) - x).length_squared() / w;
                 }
                 before = after;
                 x = x_next;
