@@ -381,8 +381,8 @@ impl TreeSolve<'_, '_> {
             } else if self.first_round {
                 // (Not right after a fallback, see [`LineMode::FellBack`].)
                 let shake = self.shake && s[0].mode != LineMode::FellBack;
-                // (For the curvature passes, and to measure the warm start's reach.)
-                let keeps = curvature.len() == s.len() && self.mirror.is_none();
+                let keeps =
+                    curvature.len() == s.len() && self.mirror.is_none() && self.curvable(&view);
                 if keeps {
                     self.keep_prediction(&view, curvature);
                 }
@@ -396,9 +396,6 @@ impl TreeSolve<'_, '_> {
                     begun = self.begin(&view, s, shake);
                 }
                 predicted = begun.predicted;
-                if keeps && s[0].mode == LineMode::Shake && self.overreaches(&view, curvature) {
-                    self.take_back(&view, s);
-                }
             }
             if s[0].mode == LineMode::Sweep {
                 self.sweep(&view, s);
