@@ -2,7 +2,7 @@
 //! tear → writeback (scatter).
 
 use crate::executor::with_executor;
-use crate::solver::{GlobalSubstep, MAX_TETHER_ANCHORS, Sleep, StepConfig};
+use crate::solver::{GlobalSubstep, MAX_TETHER_ANCHORS, Pins, Sleep, StepConfig};
 use crate::state::{ParticleData, Problem, RebuildInputs, VerletState};
 use crate::{
     AngleConstraint, Gravity, IslandOverride, Particle, Pin, Sleeping, StickTorn, Tethered,
@@ -556,6 +556,7 @@ pub(crate) fn writeback(
         let slot = particle.slot as usize;
         // Where the particle was at the end of the last step (or an accepted edit): finite.
         let last = state.render_current[slot];
+        let pins = &state.solver.pins;
         let solver = &mut state.solver.particles;
         let x = solver.position[slot];
         let limit = DVec3::splat(f32::MAX as f64);
@@ -565,15 +566,16 @@ pub(crate) fn writeback(
             // NaN, infinite or beyond f32's range (which the component cannot hold): something
             // diverged this step (a huge velocity or gravity, a constraint that cannot be met).
             // Put the particle back where it was, at rest, so that nothing non-finite leaves
-            // the step or carries into the next one.
-            let back = last.as_dvec3();
+            // the step or carries into the next one — a pinned one at its pin (a NaN next to
+            // it reaches it as `0 · NaN`; its last position may be an old target).
+            let back = pinned_target(pins, slot).unwrap_or(last.as_dvec3());
             solver.position[slot] = back;
             solver.previous[slot] = back;
             stats.diverged += 1;
             state.warn(entity, Problem::Diverged, || {
-                format!("Particle's state became {x} (NaN, infinite or beyond f32's range); put back at its last position {last}, at rest")
+                format!("Particle's state became {x} (NaN, infinite or beyond f32's range); put back at {back}, at rest")
             });
-            last
+            back.as_vec3()
         };
         let particle = particle.bypass_change_detection();
         particle.previous_position = last;
@@ -592,6 +594,13 @@ pub(crate) fn writeback(
     if let Some(started) = clock.started.take() {
         stats.step_micros = started.elapsed().as_secs_f32() * 1e6;
     }
+}
+
+/// Where pin of particle `slot` holds it at the end of this step, if it is pinned (a linear
+/// search: only for a particle that diverged).
+fn pinned_target(pins: &Pins, slot: usize) -> Option<DVec3> {
+    let i = pins.particle.iter().position(|&p| p as usize == slot)?;
+    Some(pins.to[i]).filter(|target| target.is_finite())
 }
 
 /// Counts rebuilds (runs after prepare).

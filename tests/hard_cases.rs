@@ -1345,6 +1345,43 @@ fn diverging_particles_are_put_back_without_nan() {
     );
 }
 
+/// A pinned particle next to one whose state turned NaN — written into the solver here; wild
+/// input the fuzzer built reached it the same way — ends the step at its pin's new target, not
+/// where it was: a swept stick moves its pinned end by `0 · NaN`, and a diverged particle is
+/// put back at rest, a pinned one now at its pin (`FUZZ_SEED=33` of `tests/fuzz.rs` failed so:
+/// the pinned particle stayed at its old target).
+#[test]
+fn a_diverged_pinned_particle_is_put_back_at_its_pin() {
+    let mut app = app();
+    app.insert_resource(VerletConfig {
+        method: SolveMethod::Sweep,
+        ..default()
+    });
+    let (pinned, other) = spawn(&mut app, |c| {
+        let pinned = c
+            .spawn((Particle::new(Vec3::ZERO), Pin::at(Vec3::ZERO)))
+            .id();
+        let other = c.spawn(Particle::new(Vec3::X)).id();
+        c.spawn(Stick::new(pinned, other));
+        (pinned, other)
+    });
+    step(&mut app, 2);
+    let target = Vec3::new(0.0, 1.0, 0.0);
+    app.world_mut()
+        .get_mut::<Pin>(pinned)
+        .unwrap()
+        .set_position(target);
+    let mut state = app.world_mut().resource_mut::<VerletState>();
+    let slot = state.slot(other).unwrap() as usize;
+    state.solver.particles.position[slot] = DVec3::NAN;
+    state.solver.particles.previous[slot] = DVec3::NAN;
+    step(&mut app, 1);
+    assert!(app.world().resource::<VerletStats>().diverged >= 1);
+    assert_eq!(position(&app, pinned), target);
+    assert_eq!(solver_position(&app, pinned), Some(target.as_dvec3()));
+    assert!(solver_finite(&app));
+}
+
 /// A particle pushed past f32's range (3·10³⁸ m at 6.4·10³⁹ m/s) is put back at its last
 /// position, at rest, with a warning, instead of writing ±∞ into its component.
 #[test]
