@@ -596,7 +596,7 @@ pub(crate) fn writeback(
     }
 }
 
-/// Where pin of particle `slot` holds it at the end of this step, if it is pinned (a linear
+/// Where the pin of particle `slot` holds it at the end of this step, if it is pinned (a linear
 /// search: only for a particle that diverged).
 fn pinned_target(pins: &Pins, slot: usize) -> Option<DVec3> {
     let i = pins.particle.iter().position(|&p| p as usize == slot)?;
