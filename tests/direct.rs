@@ -342,7 +342,7 @@ fn random_heavy_chains_and_trees_hit_hard_stay_unstretched() {
         };
         solver.step(&config);
         let start = energy(&solver, h);
-        let scale = scale + kinetic_energy(&solver, h);
+        let scale = scale + solver.particles.kinetic_energy(h);
         let (mut strain, mut highest) = (0.0f64, f64::MIN);
         for _ in 1..128 {
             solver.step(&config);
@@ -366,15 +366,6 @@ fn random_heavy_chains_and_trees_hit_hard_stay_unstretched() {
     );
     assert!(failed.is_empty(), "failed scenes: {failed:#?}");
     assert!(built >= scenes as usize / 2, "only {built} scenes built");
-}
-
-/// Kinetic energy from the velocities over the last substep `h`.
-fn kinetic_energy(solver: &Solver, h: f64) -> f64 {
-    let p = &solver.particles;
-    (0..p.len())
-        .filter(|&i| p.inverse_mass[i] > 0.0)
-        .map(|i| 0.5 * ((p.position[i] - p.previous[i]) / h).length_squared() / p.inverse_mass[i])
-        .sum()
 }
 
 /// A weight `weight` × a link hung from two pins 0.8 m apart by a V of 64 links of 2 cm and
@@ -1175,11 +1166,7 @@ fn a_tree_pinned_twice_in_place_is_swept() {
     }
     let tip = solver.particles.len() - 1;
     solver.particles.inverse_mass[tip] = 0.0;
-    let mut worst: f64 = 0.0;
-    for _ in 0..64 {
-        solver.step(&config);
-        worst = worst.max(max_strain(&solver));
-    }
+    let worst = largest_strain_over(&mut solver, &config, 64);
     println!(
         "tree pinned twice in place: max strain {:.3} %",
         worst * 100.0
