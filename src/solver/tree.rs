@@ -35,6 +35,13 @@
 //! ([`curvature`]): a Y rope with 1000× heavier tips swinging takes 7112 passes in 5 s instead
 //! of 28 707.
 //!
+//! A projected substep whose passes end unconverged and leave the tree worse off than its
+//! prediction (a larger error, or mass-weighted farther from it than
+//! [`WARM_START_REACH`](super::direct::WARM_START_REACH) times the start of the substep) is
+//! put back at the prediction and swept once instead: a sweep cannot blow up, and Gauss–Newton
+//! passes that wander can (random trees at one substep, kicked by 30 m/s: strains to 10¹⁰ link
+//! lengths before, see `LineSolve::project` in [`direct`](super::direct) for the figures).
+//!
 //! A tree with a second immovable particle (a string of lanterns between two posts) is rooted
 //! at the first; the stick to the second closes a loop, its multiplier solved by a Schur
 //! complement of one row ([`closure`]); where the path between the two is pulled taut the tree
@@ -376,13 +383,15 @@ impl TreeSolve<'_, '_> {
         // SAFETY: this task alone holds the tree's particles and multipliers (caller).
         unsafe {
             let mut predicted = f64::INFINITY;
+            let keeps = self.first_round
+                && curvature.len() == s.len()
+                && self.mirror.is_none()
+                && self.curvable(&view);
             if self.first_round && (self.pinned_below_root(&view) || self.closing_taut(&view)) {
                 s[0].mode = LineMode::Sweep;
             } else if self.first_round {
                 // (Not right after a fallback, see [`LineMode::FellBack`].)
                 let shake = self.shake && s[0].mode != LineMode::FellBack;
-                let keeps =
-                    curvature.len() == s.len() && self.mirror.is_none() && self.curvable(&view);
                 if keeps {
                     self.keep_prediction(&view, curvature);
                 }
@@ -403,28 +412,34 @@ impl TreeSolve<'_, '_> {
             }
             // (A projection starts with a curvature pass, and full Newton passes rescue it where
             // Gauss–Newton does not converge, where they apply: see `curvature`.)
-            let rescuable = self.first_round
-                && self.mirror.is_none()
-                && predicted < CURVATURE_BELOW
-                && curvature.len() == s.len()
-                && self.curvable(&view);
+            let rescuable = keeps
+                && (predicted < CURVATURE_BELOW
+                    || self.balanced_error(&view, s, curvature) < CURVATURE_BELOW);
             let rescue = rescuable.then_some(&mut *curvature);
-            let mut passes = if s[0].mode == LineMode::Shake {
+            let (mut passes, mut converged) = if s[0].mode == LineMode::Shake {
                 let (passes, converged) =
                     self.newton(&view, s, SHAKE_PASSES, SHAKE_CONTRACTION, predicted);
                 if converged {
-                    passes
+                    (passes, true)
                 } else {
                     self.take_back(&view, s);
                     s[0].mode = LineMode::FellBack;
-                    passes + self.project(&view, s, rescue, f64::INFINITY)
+                    let (more, converged) = self.project(&view, s, rescue, f64::INFINITY);
+                    (passes + more, converged)
                 }
             } else {
                 self.project(&view, s, rescue, predicted)
             };
             // (Projected substeps only: SHAKE's result is no projection, nor meant to be one.)
             if rescuable && s[0].mode != LineMode::Shake {
-                passes += self.second_try(&view, curvature);
+                let (more, again) = self.second_try(&view, curvature);
+                (passes, converged) = (passes + more, again);
+            }
+            // (Where the passes left the tree worse off than its prediction: see the module's
+            // docs.)
+            if !converged && keeps && self.unconverged_too_far(&view, curvature, predicted) {
+                self.restore_prediction(&view, curvature);
+                self.sweep(&view, s);
             }
             for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
                 node.warm = self.lambda.get(k as usize);
@@ -447,11 +462,11 @@ impl TreeSolve<'_, '_> {
         s: &mut [Node],
         curvature: Option<&mut [TreeCurvature]>,
         predicted: f64,
-    ) -> u32 {
+    ) -> (u32, bool) {
         // SAFETY: as for `solve` (caller).
         unsafe {
             let Some(curvature) = curvature else {
-                return self.newton(view, s, MAX_PASSES, f64::INFINITY, predicted).0;
+                return self.newton(view, s, MAX_PASSES, f64::INFINITY, predicted);
             };
             let mut passes = 0;
             if self.shake {
@@ -466,10 +481,11 @@ impl TreeSolve<'_, '_> {
                 f64::INFINITY,
             );
             passes += taken;
-            if !converged {
-                passes += self.full_newton(view, curvature, MAX_PASSES - passes).0;
+            if converged {
+                return (passes, true);
             }
-            passes
+            let (taken, converged) = self.full_newton(view, curvature, MAX_PASSES - passes);
+            (passes + taken, converged)
         }
     }
 

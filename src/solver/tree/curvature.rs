@@ -30,6 +30,7 @@
 //! kick, `SCAN_SCENES=2400`): energy gains of 11–19 % of a scene's scale at kicks of 2 and
 //! 10 m/s gone (largest gain 1.75 %), failures at 100 m/s 6 → 2.
 
+use super::super::direct::violation;
 use super::super::kkt::{self, Link, Load, Reduced, Subtree};
 use super::{Node, TreeSolve, TreeView};
 use glam::DVec3;
@@ -114,21 +115,98 @@ impl TreeSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`TreeSolve::full_newton`], and the prediction was kept this substep.
-    pub(super) unsafe fn second_try(&self, view: &TreeView, c: &mut [TreeCurvature]) -> u32 {
+    pub(super) unsafe fn second_try(
+        &self,
+        view: &TreeView,
+        c: &mut [TreeCurvature],
+    ) -> (u32, bool) {
         // SAFETY: as above (this function's contract).
         unsafe {
             let converged = self.residual(view) <= super::TOLERANCE;
             let (first, start) = self.distances(view, c);
             if converged && first <= start * (1.0 + NEARER) {
-                return 0;
+                return (0, true);
             }
             self.swap_iterate(view, c, true);
             let (passes, again) = self.full_newton(view, c, super::MAX_PASSES);
             let (second, _) = self.distances(view, c);
-            if !(again && (!converged || second < first)) {
+            let kept = again && (!converged || second < first);
+            if !kept {
                 self.swap_iterate(view, c, false);
             }
-            passes
+            (passes, kept || converged)
+        }
+    }
+
+    /// The largest `|C + α̃λ|/L` at the kept prediction with the last substep's multipliers (the
+    /// nodes' warm starts), one-sided where a stick is: the prediction's error with a spring's
+    /// stretch that its multiplier balanced left out, which
+    /// [`CURVATURE_BELOW`](super::super::direct::CURVATURE_BELOW) bounds where the error itself
+    /// is beyond it.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
+    pub(super) unsafe fn balanced_error(
+        &self,
+        view: &TreeView,
+        s: &[Node],
+        c: &[TreeCurvature],
+    ) -> f64 {
+        let mut worst: f64 = 0.0;
+        for t in 1..c.len() {
+            // SAFETY: `t` is a node of the view; in bounds (`check`).
+            let (k, parent) = unsafe {
+                (
+                    *view.stick.get_unchecked(t) as usize,
+                    (*view.parent.get_unchecked(t) - view.offset) as usize,
+                )
+            };
+            let rest = self.sticks.rest_length[k].max(1e-12);
+            let stretch = (c[t].predicted - c[parent].predicted).length() - rest;
+            let balanced = self.sticks.compliance[k] * self.inv_h2 * s[t].warm;
+            worst = worst.max(violation(self.sticks.kind[k], stretch + balanced) / rest);
+        }
+        worst
+    }
+
+    /// Whether an unconverged iterate is worse than the prediction it started from (`predicted`
+    /// its error) or farther from it than [`WARM_START_REACH`](super::super::direct::WARM_START_REACH)
+    /// times the start of the substep (mass-weighted).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
+    pub(super) unsafe fn unconverged_too_far(
+        &self,
+        view: &TreeView,
+        c: &[TreeCurvature],
+        predicted: f64,
+    ) -> bool {
+        // SAFETY: as above (this function's contract).
+        unsafe {
+            let (reach, start) = self.distances(view, c);
+            let r = super::super::direct::WARM_START_REACH;
+            self.residual(view) > predicted || reach > r * r * start
+        }
+    }
+
+    /// Puts the tree's movable particles back where the substep's prediction put them (kept by
+    /// [`TreeSolve::keep_prediction`]), λ = 0.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
+    pub(super) unsafe fn restore_prediction(&self, view: &TreeView, c: &[TreeCurvature]) {
+        for (t, node) in c.iter().enumerate() {
+            // SAFETY: `t` is a node of the view; in bounds (`check`) and this task's (caller).
+            unsafe {
+                let p = *view.particle.get_unchecked(t) as usize;
+                if *self.inverse_mass.get_unchecked(p) > 0.0 {
+                    self.position.set_unchecked(p, node.predicted);
+                }
+                if t > 0 {
+                    self.lambda
+                        .set_unchecked(*view.stick.get_unchecked(t) as usize, 0.0);
+                }
+            }
         }
     }
 
