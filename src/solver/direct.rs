@@ -55,18 +55,22 @@
 //!
 //! A projection whose passes run out unconverged (the budget of [`MAX_PASSES`]) and leave a line
 //! alone in its island with a larger error than its prediction had is put back at the
-//! prediction and swept once instead: Gauss–Newton passes far from the constraints can wander
-//! off, a sweep cannot. Measured with the random chains and trees of `tests/direct.rs` (loads up
-//! to 10⁴× a link; trees use the same rule, and also fall back where the iterate is farther from
+//! prediction and swept once instead ([`LineSolve::fall_back`]): Gauss–Newton passes far from
+//! the constraints can wander off, a sweep cannot — unless the iterate is within [`NEARLY_ON`]
+//! of its constraints (`|C + α̃λ|/L`, one-sided) and nearer them than the sweep: then it is
+//! kept (the error compared first counts a multiplier not yet released, and a review found
+//! such iterates 4·10⁻⁹–7·10⁻³ off their constraints swept into 46–310 % strain where pins jump
+//! each step). Trees use the same rule, and also fall back where the iterate is farther from
 //! the prediction than [`WARM_START_REACH`] times the start of the substep — not lines, where
-//! that changed which energy a rope teleported a kilometre kept): at one substep kicked by
+//! that changed which energy a rope teleported a kilometre kept. Measured with the random
+//! chains and trees of `tests/direct.rs` (loads up to 10⁴× a link): at one substep kicked by
 //! 10 m/s (506 scenes) the largest strain went from 2780 % to 255 % and the largest energy gain
 //! from 76 % to 0.13 % of a scene's scale; kicked by 30 m/s, from 2.6·10¹⁰ link lengths and
 //! 2.9·10¹⁵ times the scale to 7400 and 1900 times (71 of 506 scenes still stretch beyond 1 %);
-//! at 8 substeps kicked by 100 m/s (2109 scenes) the two that fail went from 6.3·10⁶ to 447 link
-//! lengths, their largest energy gain from 3.3 to 18 times the scale; with damping 0.5/s one
-//! failure fewer. The report's scenes are unchanged (the same errors; the same Newton passes on
-//! the whipping 1000:1 chain, the 200-link chain and the 50 × 50 cloth by lines).
+//! at 8 substeps kicked by 100 m/s (2109 scenes) the two that fail went from 6.3·10⁶ to 1420
+//! link lengths, their largest energy gain from 3.3 to 37 times the scale; with damping 0.5/s
+//! one failure fewer. The report's scenes are unchanged (the same errors; the same Newton
+//! passes on the whipping 1000:1 chain, the 200-link chain and the 50 × 50 cloth by lines).
 //! A prediction whose error is beyond [`CURVATURE_BELOW`] is measured again before its
 //! curvature and full Newton passes are left out: a rope link counted only where it is
 //! stretched, a strut only where it is compressed ([`violation`]), a spring's stretch that its
@@ -283,6 +287,11 @@ pub(crate) fn violation(kind: StickKind, c: f64) -> f64 {
     }
 }
 
+/// An unconverged projection whose constraints are violated by less than this (relative) is
+/// kept rather than replaced by a sweep from the prediction that does worse (see
+/// [`LineSolve::fall_back`]).
+pub(crate) const NEARLY_ON: f64 = 0.01;
+
 /// Where a projection starts from (see [`LineSolve::project`]).
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Start {
@@ -406,6 +415,11 @@ pub(crate) struct LineScratch {
     /// where the substep's prediction put it, for full Newton passes (lines alone in their
     /// island only).
     pub predicted: Vec<DVec3>,
+    /// Per line particle: an unconverged iterate's positions, kept while a sweep from the
+    /// prediction is tried instead (see [`LineSolve::fall_back`]).
+    pub kept: Vec<DVec3>,
+    /// Per line stick: that iterate's multipliers.
+    pub kept_lambda: Vec<f64>,
 }
 
 impl LineScratch {
@@ -422,6 +436,8 @@ impl LineScratch {
         self.curvature.resize(n, super::kkt::Reduced::default());
         self.loads.resize(n, super::kkt::Load::default());
         self.predicted.resize(particles, DVec3::ZERO);
+        self.kept.resize(particles, DVec3::ZERO);
+        self.kept_lambda.resize(n, 0.0);
         self.warm.clear();
         self.warm.resize(n, 0.0);
         // (Cleared: a line rebuilt at the offset of one that fell back must not inherit it.)
@@ -444,6 +460,8 @@ pub(crate) struct LineViews<'a> {
     pub curvature: SharedSlice<'a, super::kkt::Reduced>,
     pub loads: SharedSlice<'a, super::kkt::Load>,
     pub predicted: SharedSlice<'a, DVec3>,
+    pub kept: SharedSlice<'a, DVec3>,
+    pub kept_lambda: SharedSlice<'a, f64>,
 }
 
 impl<'a> LineViews<'a> {
@@ -460,6 +478,8 @@ impl<'a> LineViews<'a> {
             curvature: SharedSlice::new(&mut scratch.curvature),
             loads: SharedSlice::new(&mut scratch.loads),
             predicted: SharedSlice::new(&mut scratch.predicted),
+            kept: SharedSlice::new(&mut scratch.kept),
+            kept_lambda: SharedSlice::new(&mut scratch.kept_lambda),
         }
     }
 }
@@ -719,8 +739,7 @@ impl LineSolve<'_, '_> {
             }
             // (Worse off than the prediction: see the module's docs.)
             if !converged && self.keeps_prediction() && self.residual(line) > begun.predicted {
-                self.restore_prediction(line);
-                self.sweep(line);
+                self.fall_back(line);
             }
             passes
         }
@@ -763,6 +782,70 @@ impl LineSolve<'_, '_> {
     /// line alone in its island, in the substep's first round).
     fn keeps_prediction(&self) -> bool {
         self.first_round && self.alone && self.mirror.is_none()
+    }
+
+    /// After passes that did not converge and left the line worse off than its prediction: a
+    /// sweep from the prediction instead — unless the iterate is within [`NEARLY_ON`] of its
+    /// constraints and nearer them than the sweep ([`LineSolve::violation`]): it is then put
+    /// back. See the module's docs.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::restore_prediction`].
+    unsafe fn fall_back(&self, line: &LineRef) {
+        // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
+        unsafe {
+            let v = self.scratch;
+            let iterate = self.violation(line);
+            for (j, &p) in line.particles.iter().enumerate() {
+                v.kept.set_unchecked(
+                    line.particle_offset + j,
+                    self.position.get_unchecked(p as usize),
+                );
+            }
+            for (k, &s) in line.sticks.iter().enumerate() {
+                v.kept_lambda
+                    .set_unchecked(line.offset + k, self.lambda.get_unchecked(s as usize));
+            }
+            self.restore_prediction(line);
+            self.sweep(line);
+            if iterate >= NEARLY_ON || self.violation(line) <= iterate {
+                return;
+            }
+            for (j, &p) in line.particles.iter().enumerate() {
+                if self.w(p as usize) > 0.0 {
+                    let x = v.kept.get_unchecked(line.particle_offset + j);
+                    self.position.set_unchecked(p as usize, x);
+                }
+            }
+            for (k, &s) in line.sticks.iter().enumerate() {
+                let lambda = v.kept_lambda.get_unchecked(line.offset + k);
+                self.lambda.set_unchecked(s as usize, lambda);
+            }
+        }
+    }
+
+    /// The largest violation of the line's constraints, `|C + α̃λ|/L` one-sided where a stick
+    /// is ([`violation`](self::violation); sticks between immovable particles left out).
+    ///
+    /// # Safety
+    /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`].
+    unsafe fn violation(&self, line: &LineRef) -> f64 {
+        let mut worst: f64 = 0.0;
+        for (k, &s) in line.sticks.iter().enumerate() {
+            let s = s as usize;
+            // SAFETY: in bounds (`check`, the caller's contract).
+            unsafe {
+                let (a, b) = (line.p(k), line.p(k + 1));
+                if self.w(a) + self.w(b) <= 0.0 {
+                    continue;
+                }
+                let c = (self.position.get_unchecked(b) - self.position.get_unchecked(a)).length()
+                    - self.rest(s);
+                let balanced = self.compliance(s) * self.inv_h2 * self.lambda.get_unchecked(s);
+                worst = worst.max(violation(self.kind(s), c + balanced) / self.rest(s).max(1e-12));
+            }
+        }
+        worst
     }
 
     /// Puts the line's movable particles back at the substep's prediction, λ = 0.
@@ -826,11 +909,13 @@ impl LineSolve<'_, '_> {
             v.rhs.len(),
             v.curvature.len(),
             v.loads.len(),
+            v.kept_lambda.len(),
         ]
         .into_iter()
         .fold(v.warm.len().min(v.mode.len()), usize::min);
+        let per_particle = v.predicted.len().min(v.kept.len());
         assert!(
-            line.offset + m <= scratch && line.particle_offset + m < v.predicted.len(),
+            line.offset + m <= scratch && line.particle_offset + m < per_particle,
             "a line's scratch is out of bounds"
         );
     }

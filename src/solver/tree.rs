@@ -38,9 +38,11 @@
 //! A projected substep whose passes end unconverged and leave the tree worse off than its
 //! prediction (a larger error, or mass-weighted farther from it than
 //! [`WARM_START_REACH`](super::direct::WARM_START_REACH) times the start of the substep) is
-//! put back at the prediction and swept once instead: a sweep cannot blow up, and Gauss–Newton
-//! passes that wander can (random trees at one substep, kicked by 30 m/s: strains to 10¹⁰ link
-//! lengths before, see `LineSolve::project` in [`direct`](super::direct) for the figures).
+//! put back at the prediction and swept once instead, unless the iterate is within
+//! [`NEARLY_ON`](super::direct::NEARLY_ON) of its constraints and nearer them than the sweep
+//! ([`TreeSolve::fall_back`]): a sweep cannot blow up, and Gauss–Newton passes that wander can
+//! (random trees at one substep, kicked by 30 m/s: strains to 10¹⁰ link lengths before; see
+//! the module docs of [`direct`](super::direct) for the figures).
 //!
 //! A tree with a second immovable particle (a string of lanterns between two posts) is rooted
 //! at the first; the stick to the second closes a loop, its multiplier solved by a Schur
@@ -438,8 +440,7 @@ impl TreeSolve<'_, '_> {
             // (Where the passes left the tree worse off than its prediction: see the module's
             // docs.)
             if !converged && keeps && self.unconverged_too_far(&view, curvature, predicted) {
-                self.restore_prediction(&view, curvature);
-                self.sweep(&view, s);
+                self.fall_back(&view, s, curvature);
             }
             for (node, &k) in s.iter_mut().zip(view.stick).skip(1) {
                 node.warm = self.lambda.get(k as usize);

@@ -189,6 +189,78 @@ impl TreeSolve<'_, '_> {
         }
     }
 
+    /// A sweep from the substep's prediction instead of an unconverged iterate — unless the
+    /// iterate is within [`NEARLY_ON`](super::super::direct::NEARLY_ON) of its constraints and
+    /// nearer them than the sweep ([`TreeSolve::violation`]): it is then put back (kept in `c`
+    /// meanwhile).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
+    pub(super) unsafe fn fall_back(
+        &self,
+        view: &TreeView,
+        s: &mut [Node],
+        c: &mut [TreeCurvature],
+    ) {
+        // SAFETY: as above (this function's contract).
+        unsafe {
+            let iterate = self.violation(view);
+            for (t, node) in c.iter_mut().enumerate() {
+                node.kept = self
+                    .position
+                    .get_unchecked(*view.particle.get_unchecked(t) as usize);
+                if t > 0 {
+                    node.kept_lambda = self
+                        .lambda
+                        .get_unchecked(*view.stick.get_unchecked(t) as usize);
+                }
+            }
+            self.restore_prediction(view, c);
+            self.sweep(view, s);
+            if iterate >= super::super::direct::NEARLY_ON || self.violation(view) <= iterate {
+                return;
+            }
+            for (t, node) in c.iter().enumerate() {
+                let p = *view.particle.get_unchecked(t) as usize;
+                if *self.inverse_mass.get_unchecked(p) > 0.0 {
+                    self.position.set_unchecked(p, node.kept);
+                }
+                if t > 0 {
+                    let k = *view.stick.get_unchecked(t) as usize;
+                    self.lambda.set_unchecked(k, node.kept_lambda);
+                }
+            }
+        }
+    }
+
+    /// The largest violation of the tree's constraints, `|C + α̃λ|/L` one-sided where a stick
+    /// is ([`violation`]; sticks between immovable particles left out).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`]; `view` passed [`TreeSolve::check`].
+    unsafe fn violation(&self, view: &TreeView) -> f64 {
+        let mut worst: f64 = 0.0;
+        for &k in &view.stick[1..] {
+            let k = k as usize;
+            let [a, b] = self.sticks.ends[k].map(|p| p as usize);
+            if self.inverse_mass[a] + self.inverse_mass[b] <= 0.0 {
+                continue;
+            }
+            // SAFETY: the tree's particles and multipliers are this task's (caller).
+            let (d, lambda) = unsafe {
+                (
+                    self.position.get(b) - self.position.get(a),
+                    self.lambda.get(k),
+                )
+            };
+            let rest = self.sticks.rest_length[k];
+            let balanced = self.sticks.compliance[k] * self.inv_h2 * lambda;
+            let c = d.length() - rest + balanced;
+            worst = worst.max(violation(self.sticks.kind[k], c) / rest.max(1e-12));
+        }
+        worst
+    }
+
     /// Puts the tree's movable particles back where the substep's prediction put them (kept by
     /// [`TreeSolve::keep_prediction`]), λ = 0.
     ///
