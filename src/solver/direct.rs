@@ -56,21 +56,22 @@
 //! A projection whose passes run out unconverged (the budget of [`MAX_PASSES`]) and leave a line
 //! alone in its island with a larger error than its prediction had is put back at the
 //! prediction and swept once instead ([`LineSolve::fall_back`]): Gauss–Newton passes far from
-//! the constraints can wander off, a sweep cannot — unless the iterate is within [`NEARLY_ON`]
-//! of its constraints (`|C + α̃λ|/L`, one-sided) and nearer them than the sweep: then it is
-//! kept (the error compared first counts a multiplier not yet released, and a review found
-//! such iterates 4·10⁻⁹–7·10⁻³ off their constraints swept into 46–310 % strain where pins jump
-//! each step). Trees use the same rule, and also fall back where the iterate is farther from
-//! the prediction than [`WARM_START_REACH`] times the start of the substep — not lines, where
-//! that changed which energy a rope teleported a kilometre kept. Measured with the random
-//! chains and trees of `tests/direct.rs` (loads up to 10⁴× a link): at one substep kicked by
-//! 10 m/s (506 scenes) the largest strain went from 2780 % to 255 % and the largest energy gain
-//! from 76 % to 0.13 % of a scene's scale; kicked by 30 m/s, from 2.6·10¹⁰ link lengths and
-//! 2.9·10¹⁵ times the scale to 7400 and 1900 times (71 of 506 scenes still stretch beyond 1 %);
-//! at 8 substeps kicked by 100 m/s (2109 scenes) the two that fail went from 6.3·10⁶ to 1420
-//! link lengths, their largest energy gain from 3.3 to 37 times the scale; with damping 0.5/s
-//! one failure fewer. The report's scenes are unchanged (the same errors; the same Newton
-//! passes on the whipping 1000:1 chain, the 200-link chain and the 50 × 50 cloth by lines).
+//! the constraints can wander off, a sweep cannot — unless the iterate is finite, within
+//! [`NEARLY_ON`] of its rigid sticks' constraints, nearer them than the sweep and not
+//! [`FARTHER_THAN_A_SWEEP`] from the prediction: then it is kept (the error compared first
+//! counts a multiplier not yet released, and a review found iterates 4·10⁻⁹–7·10⁻³ off their
+//! constraints swept into 46–310 % strain where pins jump each step). Trees use the same rule,
+//! and also try the sweep where the iterate is farther from the prediction than
+//! [`WARM_START_REACH`] times the start of the substep — not lines, where that changed which
+//! energy a rope teleported a kilometre kept. Measured with the random chains and trees of
+//! `tests/direct.rs` (loads up to 10⁴× a link): at one substep kicked by 10 m/s (506 scenes)
+//! the largest strain went from 2780 % to 255 % and the largest energy gain from 76 % to 0.13 %
+//! of a scene's scale; kicked by 30 m/s, from 2.6·10¹⁰ link lengths and 2.9·10¹⁵ times the
+//! scale to 7400 and 1900 times (71 of 506 scenes still stretch beyond 1 %); at 8 substeps
+//! kicked by 100 m/s (2109 scenes) the two that fail went from 6.3·10⁶ to 447 link lengths,
+//! their largest energy gain from 3.3 to 18 times the scale; with damping 0.5/s one failure
+//! fewer. The report's scenes are unchanged (the same errors; the same Newton passes on the
+//! whipping 1000:1 chain, the 200-link chain and the 50 × 50 cloth by lines).
 //! A prediction whose error is beyond [`CURVATURE_BELOW`] is measured again before its
 //! curvature and full Newton passes are left out: a rope link counted only where it is
 //! stretched, a strut only where it is compressed ([`violation`]), a spring's stretch that its
@@ -287,10 +288,20 @@ pub(crate) fn violation(kind: StickKind, c: f64) -> f64 {
     }
 }
 
-/// An unconverged projection whose constraints are violated by less than this (relative) is
-/// kept rather than replaced by a sweep from the prediction that does worse (see
-/// [`LineSolve::fall_back`]).
+/// An unconverged projection whose rigid sticks are off their constraints by less than this
+/// (relative) is kept rather than replaced by a sweep from the prediction that does worse
+/// (see [`LineSolve::fall_back`]).
 pub(crate) const NEARLY_ON: f64 = 0.01;
+
+/// An unconverged projection whose particles moved more than this times as far from the
+/// prediction as a sweep from it moves them (mass-weighted squared distances: 100 times the
+/// distance) is not kept, however near its constraints (see [`LineSolve::fall_back`]): it may
+/// be on another root, a load thrown round its pin. Measured with `tests/direct.rs`'s random
+/// scenes: at 16 the nearly converged iterates of
+/// `nearly_converged_projections_are_kept_where_pins_jump` were swept (250 % strain); without
+/// the bound, the two scenes kicked by 100 m/s that fail at 8 × 1 ended 1420 link lengths
+/// apart, gaining 37 times their scale (447 and 18 with it).
+pub(crate) const FARTHER_THAN_A_SWEEP: f64 = 1e4;
 
 /// Where a projection starts from (see [`LineSolve::project`]).
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -785,9 +796,10 @@ impl LineSolve<'_, '_> {
     }
 
     /// After passes that did not converge and left the line worse off than its prediction: a
-    /// sweep from the prediction instead — unless the iterate is within [`NEARLY_ON`] of its
-    /// constraints and nearer them than the sweep ([`LineSolve::violation`]): it is then put
-    /// back. See the module's docs.
+    /// sweep from the prediction instead — unless the iterate is finite, within [`NEARLY_ON`]
+    /// of its rigid sticks' constraints, nearer them than the sweep ([`LineSolve::violation`])
+    /// and not [`FARTHER_THAN_A_SWEEP`] from the prediction: it is then put back, its
+    /// multipliers of one-sided sticks out of the system released. See the module's docs.
     ///
     /// # Safety
     /// As for [`LineSolve::restore_prediction`].
@@ -795,20 +807,21 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
             let v = self.scratch;
-            let iterate = self.violation(line);
+            let (iterate, moved) = (self.violation(line), self.moved(line));
             for (j, &p) in line.particles.iter().enumerate() {
-                v.kept.set_unchecked(
-                    line.particle_offset + j,
-                    self.position.get_unchecked(p as usize),
-                );
+                let x = self.position.get_unchecked(p as usize);
+                v.kept.set_unchecked(line.particle_offset + j, x);
             }
             for (k, &s) in line.sticks.iter().enumerate() {
-                v.kept_lambda
-                    .set_unchecked(line.offset + k, self.lambda.get_unchecked(s as usize));
+                let lambda = self.lambda.get_unchecked(s as usize);
+                v.kept_lambda.set_unchecked(line.offset + k, lambda);
             }
             self.restore_prediction(line);
             self.sweep(line);
-            if iterate >= NEARLY_ON || self.violation(line) <= iterate {
+            let keeps = iterate < NEARLY_ON
+                && iterate < self.violation(line)
+                && moved <= FARTHER_THAN_A_SWEEP * self.moved(line);
+            if !keeps {
                 return;
             }
             for (j, &p) in line.particles.iter().enumerate() {
@@ -818,14 +831,21 @@ impl LineSolve<'_, '_> {
                 }
             }
             for (k, &s) in line.sticks.iter().enumerate() {
+                let s = s as usize;
+                let (a, b) = (line.p(k), line.p(k + 1));
+                let c = (self.position.get_unchecked(b) - self.position.get_unchecked(a)).length()
+                    - self.rest(s);
                 let lambda = v.kept_lambda.get_unchecked(line.offset + k);
-                self.lambda.set_unchecked(s as usize, lambda);
+                let released = !in_system(self.kind(s), c, self.rest(s));
+                self.lambda
+                    .set_unchecked(s, if released { 0.0 } else { lambda });
             }
         }
     }
 
-    /// The largest violation of the line's constraints, `|C + α̃λ|/L` one-sided where a stick
-    /// is ([`violation`](self::violation); sticks between immovable particles left out).
+    /// The largest violation of the line's rigid sticks, `|C|/L` one-sided where a stick is
+    /// ([`violation`](self::violation); a spring's stretch is its own, sticks between immovable
+    /// particles are left out); `∞` where a length is not finite.
     ///
     /// # Safety
     /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`].
@@ -836,16 +856,42 @@ impl LineSolve<'_, '_> {
             // SAFETY: in bounds (`check`, the caller's contract).
             unsafe {
                 let (a, b) = (line.p(k), line.p(k + 1));
-                if self.w(a) + self.w(b) <= 0.0 {
+                if self.w(a) + self.w(b) <= 0.0 || self.compliance(s) > 0.0 {
                     continue;
                 }
                 let c = (self.position.get_unchecked(b) - self.position.get_unchecked(a)).length()
                     - self.rest(s);
-                let balanced = self.compliance(s) * self.inv_h2 * self.lambda.get_unchecked(s);
-                worst = worst.max(violation(self.kind(s), c + balanced) / self.rest(s).max(1e-12));
+                let error = violation(self.kind(s), c) / self.rest(s).max(1e-12);
+                if error.is_nan() {
+                    return f64::INFINITY;
+                }
+                worst = worst.max(error);
             }
         }
         worst
+    }
+
+    /// `Σ m|x − x̃|²` over the line's movable particles, `x̃` the kept prediction.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::restore_prediction`].
+    unsafe fn moved(&self, line: &LineRef) -> f64 {
+        let mut moved = 0.0;
+        for (j, &p) in line.particles.iter().enumerate() {
+            let p = p as usize;
+            // SAFETY: in bounds (`check`, the caller's contract).
+            unsafe {
+                let w = self.w(p);
+                if w > 0.0 {
+                    let at = self
+                        .scratch
+                        .predicted
+                        .get_unchecked(line.particle_offset + j);
+                    moved += (self.position.get_unchecked(p) - at).length_squared() / w;
+                }
+            }
+        }
+        moved
     }
 
     /// Puts the line's movable particles back at the substep's prediction, λ = 0.

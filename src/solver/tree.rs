@@ -38,9 +38,9 @@
 //! A projected substep whose passes end unconverged and leave the tree worse off than its
 //! prediction (a larger error, or mass-weighted farther from it than
 //! [`WARM_START_REACH`](super::direct::WARM_START_REACH) times the start of the substep) is
-//! put back at the prediction and swept once instead, unless the iterate is within
-//! [`NEARLY_ON`](super::direct::NEARLY_ON) of its constraints and nearer them than the sweep
-//! ([`TreeSolve::fall_back`]): a sweep cannot blow up, and Gauss–Newton passes that wander can
+//! put back at the prediction and swept once instead, unless the iterate is nearly on its
+//! constraints, nearer them than the sweep and not far off ([`TreeSolve::fall_back`], with
+//! the rule of the lines): a sweep cannot blow up, and Gauss–Newton passes that wander can
 //! (random trees at one substep, kicked by 30 m/s: strains to 10¹⁰ link lengths before; see
 //! the module docs of [`direct`](super::direct) for the figures).
 //!

@@ -30,7 +30,7 @@
 //! kick, `SCAN_SCENES=2400`): energy gains of 11–19 % of a scene's scale at kicks of 2 and
 //! 10 m/s gone (largest gain 1.75 %), failures at 100 m/s 6 → 2.
 
-use super::super::direct::violation;
+use super::super::direct::{in_system, violation};
 use super::super::kkt::{self, Link, Load, Reduced, Subtree};
 use super::{Node, TreeSolve, TreeView};
 use glam::DVec3;
@@ -52,7 +52,8 @@ pub(crate) struct TreeCurvature {
     carried: DVec3,
     load: Load,
     dx_unit: DVec3,
-    /// The first iterate of a projection tried a second time ([`TreeSolve::second_try`]): its
+    /// The first iterate of a projection tried a second time ([`TreeSolve::second_try`]), or
+    /// an unconverged one while a sweep is tried instead ([`TreeSolve::fall_back`]): its
     /// position and its parent stick's multiplier.
     kept: DVec3,
     kept_lambda: f64,
@@ -190,9 +191,11 @@ impl TreeSolve<'_, '_> {
     }
 
     /// A sweep from the substep's prediction instead of an unconverged iterate — unless the
-    /// iterate is within [`NEARLY_ON`](super::super::direct::NEARLY_ON) of its constraints and
-    /// nearer them than the sweep ([`TreeSolve::violation`]): it is then put back (kept in `c`
-    /// meanwhile).
+    /// iterate is finite, within [`NEARLY_ON`](super::super::direct::NEARLY_ON) of its rigid
+    /// sticks' constraints, nearer them than the sweep ([`TreeSolve::violation`]) and not
+    /// [`FARTHER_THAN_A_SWEEP`](super::super::direct::FARTHER_THAN_A_SWEEP) from the
+    /// prediction: it is then put back (kept in `c` meanwhile), its multipliers of one-sided
+    /// sticks out of the system released.
     ///
     /// # Safety
     /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
@@ -202,9 +205,10 @@ impl TreeSolve<'_, '_> {
         s: &mut [Node],
         c: &mut [TreeCurvature],
     ) {
+        use super::super::direct::{FARTHER_THAN_A_SWEEP, NEARLY_ON};
         // SAFETY: as above (this function's contract).
         unsafe {
-            let iterate = self.violation(view);
+            let (iterate, (moved, _)) = (self.violation(view), self.distances(view, c));
             for (t, node) in c.iter_mut().enumerate() {
                 node.kept = self
                     .position
@@ -217,7 +221,10 @@ impl TreeSolve<'_, '_> {
             }
             self.restore_prediction(view, c);
             self.sweep(view, s);
-            if iterate >= super::super::direct::NEARLY_ON || self.violation(view) <= iterate {
+            let keeps = iterate < NEARLY_ON
+                && iterate < self.violation(view)
+                && moved <= FARTHER_THAN_A_SWEEP * self.distances(view, c).0;
+            if !keeps {
                 return;
             }
             for (t, node) in c.iter().enumerate() {
@@ -225,16 +232,22 @@ impl TreeSolve<'_, '_> {
                 if *self.inverse_mass.get_unchecked(p) > 0.0 {
                     self.position.set_unchecked(p, node.kept);
                 }
-                if t > 0 {
-                    let k = *view.stick.get_unchecked(t) as usize;
-                    self.lambda.set_unchecked(k, node.kept_lambda);
-                }
+            }
+            for (t, node) in c.iter().enumerate().skip(1) {
+                let k = *view.stick.get_unchecked(t) as usize;
+                let [a, b] = self.sticks.ends[k].map(|p| p as usize);
+                let length = (self.position.get(b) - self.position.get(a)).length();
+                let rest = self.sticks.rest_length[k];
+                let released = !in_system(self.sticks.kind[k], length - rest, rest);
+                self.lambda
+                    .set_unchecked(k, if released { 0.0 } else { node.kept_lambda });
             }
         }
     }
 
-    /// The largest violation of the tree's constraints, `|C + α̃λ|/L` one-sided where a stick
-    /// is ([`violation`]; sticks between immovable particles left out).
+    /// The largest violation of the tree's rigid sticks, `|C|/L` one-sided where a stick is
+    /// ([`violation`]; a spring's stretch is its own, sticks between immovable particles are
+    /// left out); `∞` where a length is not finite.
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`]; `view` passed [`TreeSolve::check`].
@@ -243,20 +256,18 @@ impl TreeSolve<'_, '_> {
         for &k in &view.stick[1..] {
             let k = k as usize;
             let [a, b] = self.sticks.ends[k].map(|p| p as usize);
-            if self.inverse_mass[a] + self.inverse_mass[b] <= 0.0 {
+            let movable = self.inverse_mass[a] + self.inverse_mass[b] > 0.0;
+            if !movable || self.sticks.compliance[k] > 0.0 {
                 continue;
             }
-            // SAFETY: the tree's particles and multipliers are this task's (caller).
-            let (d, lambda) = unsafe {
-                (
-                    self.position.get(b) - self.position.get(a),
-                    self.lambda.get(k),
-                )
-            };
+            // SAFETY: the tree's particles are this task's (caller).
+            let d = unsafe { self.position.get(b) - self.position.get(a) };
             let rest = self.sticks.rest_length[k];
-            let balanced = self.sticks.compliance[k] * self.inv_h2 * lambda;
-            let c = d.length() - rest + balanced;
-            worst = worst.max(violation(self.sticks.kind[k], c) / rest.max(1e-12));
+            let error = violation(self.sticks.kind[k], d.length() - rest) / rest.max(1e-12);
+            if error.is_nan() {
+                return f64::INFINITY;
+            }
+            worst = worst.max(error);
         }
         worst
     }
