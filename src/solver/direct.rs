@@ -807,7 +807,7 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
             let v = self.scratch;
-            let (iterate, moved) = (self.violation(line), self.moved(line));
+            let (iterate, (moved, _)) = (self.violation(line), self.distances(line));
             for (j, &p) in line.particles.iter().enumerate() {
                 let x = self.position.get_unchecked(p as usize);
                 v.kept.set_unchecked(line.particle_offset + j, x);
@@ -820,7 +820,7 @@ impl LineSolve<'_, '_> {
             self.sweep(line);
             let keeps = iterate < NEARLY_ON
                 && iterate < self.violation(line)
-                && moved <= FARTHER_THAN_A_SWEEP * self.moved(line);
+                && moved <= FARTHER_THAN_A_SWEEP * self.distances(line).0;
             if !keeps {
                 return;
             }
@@ -871,12 +871,13 @@ impl LineSolve<'_, '_> {
         worst
     }
 
-    /// `Σ m|x − x̃|²` over the line's movable particles, `x̃` the kept prediction.
+    /// `(Σ m|x − x̃|², Σ m|x* − x̃|²)` over the line's movable particles: how far the iterate `x`
+    /// and the start of the substep `x*` are from the kept prediction `x̃`.
     ///
     /// # Safety
     /// As for [`LineSolve::restore_prediction`].
-    unsafe fn moved(&self, line: &LineRef) -> f64 {
-        let mut moved = 0.0;
+    unsafe fn distances(&self, line: &LineRef) -> (f64, f64) {
+        let (mut iterate, mut start) = (0.0, 0.0);
         for (j, &p) in line.particles.iter().enumerate() {
             let p = p as usize;
             // SAFETY: in bounds (`check`, the caller's contract).
@@ -887,11 +888,12 @@ impl LineSolve<'_, '_> {
                         .scratch
                         .predicted
                         .get_unchecked(line.particle_offset + j);
-                    moved += (self.position.get_unchecked(p) - at).length_squared() / w;
+                    iterate += (self.position.get_unchecked(p) - at).length_squared() / w;
+                    start += (self.previous.get_unchecked(p) - at).length_squared() / w;
                 }
             }
         }
-        moved
+        (iterate, start)
     }
 
     /// Puts the line's movable particles back at the substep's prediction, λ = 0.
@@ -1231,19 +1233,7 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
         // contract).
         unsafe {
-            let (mut reach, mut distance): (f64, f64) = (0.0, 0.0);
-            for (j, &p) in line.particles.iter().enumerate() {
-                let p = p as usize;
-                let w = self.w(p);
-                if w > 0.0 {
-                    let predicted = self
-                        .scratch
-                        .predicted
-                        .get_unchecked(line.particle_offset + j);
-                    reach += (self.position.get_unchecked(p) - predicted).length_squared() / w;
-                    distance += (self.previous.get_unchecked(p) - predicted).length_squared() / w;
-                }
-            }
+            let (reach, distance) = self.distances(line);
             reach > WARM_START_REACH * WARM_START_REACH * distance
         }
     }
