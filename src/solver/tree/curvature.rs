@@ -209,16 +209,8 @@ impl TreeSolve<'_, '_> {
         // SAFETY: as above (this function's contract).
         unsafe {
             let (iterate, (moved, _)) = (self.violation(view), self.distances(view, c));
-            for (t, node) in c.iter_mut().enumerate() {
-                node.kept = self
-                    .position
-                    .get_unchecked(*view.particle.get_unchecked(t) as usize);
-                if t > 0 {
-                    node.kept_lambda = self
-                        .lambda
-                        .get_unchecked(*view.stick.get_unchecked(t) as usize);
-                }
-            }
+            // (Kept in `c`, the positions then put at the prediction.)
+            self.swap_iterate(view, c, true);
             self.restore_prediction(view, c);
             self.sweep(view, s);
             let keeps = iterate < NEARLY_ON
@@ -227,20 +219,15 @@ impl TreeSolve<'_, '_> {
             if !keeps {
                 return;
             }
-            for (t, node) in c.iter().enumerate() {
-                let p = *view.particle.get_unchecked(t) as usize;
-                if *self.inverse_mass.get_unchecked(p) > 0.0 {
-                    self.position.set_unchecked(p, node.kept);
-                }
-            }
-            for (t, node) in c.iter().enumerate().skip(1) {
+            self.swap_iterate(view, c, false);
+            for t in 1..c.len() {
                 let k = *view.stick.get_unchecked(t) as usize;
                 let [a, b] = self.sticks.ends[k].map(|p| p as usize);
                 let length = (self.position.get(b) - self.position.get(a)).length();
                 let rest = self.sticks.rest_length[k];
-                let released = !in_system(self.sticks.kind[k], length - rest, rest);
-                self.lambda
-                    .set_unchecked(k, if released { 0.0 } else { node.kept_lambda });
+                if !in_system(self.sticks.kind[k], length - rest, rest) {
+                    self.lambda.set_unchecked(k, 0.0);
+                }
             }
         }
     }
