@@ -60,14 +60,19 @@
 //! [`NEARLY_ON`] of its rigid sticks' constraints, nearer them than the sweep and not
 //! [`FARTHER_THAN_A_SWEEP`] from the prediction: then it is kept (the error compared first
 //! counts a multiplier not yet released, and a review found iterates 4·10⁻⁹–7·10⁻³ off their
-//! constraints swept into 46–310 % strain where pins jump each step). Trees use the same rule,
+//! constraints swept into 46–310 % strain where pins jump each step). So is one that moved the
+//! particles more than [`THROWN_ABOVE`] times as far from the start of the substep as the
+//! prediction did, its residual smaller or not: unconverged passes can throw a heavy load
+//! across many link lengths (a random rope at one substep kicked by 30 m/s gained 1940 times
+//! its scale in one step). Trees use the same rule,
 //! and also try the sweep where the iterate is farther from the prediction than
 //! [`WARM_START_REACH`] times the start of the substep — not lines, where that changed which
 //! energy a rope teleported a kilometre kept. Measured with the random chains and trees of
 //! `tests/direct.rs` (loads up to 10⁴× a link): at one substep kicked by 10 m/s (506 scenes)
 //! the largest strain went from 2780 % to 255 % and the largest energy gain from 76 % to 0.13 %
 //! of a scene's scale; kicked by 30 m/s, from 2.6·10¹⁰ link lengths and 2.9·10¹⁵ times the
-//! scale to 7400 and 1900 times (71 of 506 scenes still stretch beyond 1 %); at 8 substeps
+//! scale to 7400 and 1900 times (71 of 506 scenes still stretch beyond 1 %; with
+//! [`THROWN_ABOVE`] 934 link lengths and 584 times, the same 71); at 8 substeps
 //! kicked by 100 m/s (2109 scenes) the worse of the two that fail went from 6.3·10⁶ to 447 link
 //! lengths, the other from 89 to 445, their largest energy gain from 3.3 to 18 times the
 //! scale; with damping 0.5/s one failure fewer. The report's scenes are unchanged (the same errors; the same Newton passes on the
@@ -302,6 +307,20 @@ pub(crate) const NEARLY_ON: f64 = 0.01;
 /// the bound, the two scenes kicked by 100 m/s that fail at 8 × 1 ended 1420 link lengths
 /// apart, gaining 37 times their scale (447 and 18 with it).
 pub(crate) const FARTHER_THAN_A_SWEEP: f64 = 1e4;
+
+/// An unconverged projection that moved the particles more than this times as far from the
+/// start of the substep as the prediction did (`Σ m|x − x*|²` against `Σ m|x̃ − x*|²`, each
+/// particle's share of the latter raised to its pins' largest move this substep) is swept from
+/// the prediction instead, as one worse off than its prediction is (see
+/// [`LineSolve::fall_back`]): it has thrown its loads. A projection from a prediction whose start
+/// satisfies the constraints moves no particle farther from the start than twice the
+/// prediction (`(2)² = 4`); unconverged passes far from the constraints can fling a heavy load
+/// across many link lengths with the residual still below the prediction's. Measured with the
+/// random chains and trees of `tests/direct.rs` at one substep kicked by 30 m/s (506 scenes):
+/// the largest energy gain went from 1940 to 584 times a scene's scale, the scenes gaining
+/// more than their scale from 12 to 9 (more than ten times it: 5 to 2); at 4 the bound swept
+/// projections that were merely far and a scene gained 6.9·10⁴ times its scale, at 8 as 16.
+pub(crate) const THROWN_ABOVE: f64 = 16.0;
 
 /// Where a projection starts from (see [`LineSolve::project`]).
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -748,8 +767,11 @@ impl LineSolve<'_, '_> {
                 let (taken, again) = self.full_newton(line, root, MAX_PASSES - passes);
                 (passes, converged) = (passes + taken, again);
             }
-            // (Worse off than the prediction: see the module's docs.)
-            if !converged && self.keeps_prediction() && self.residual(line) > begun.predicted {
+            // (Worse off than the prediction, or its loads thrown: see the module's docs.)
+            if !converged
+                && self.keeps_prediction()
+                && (self.residual(line) > begun.predicted || self.thrown(line))
+            {
                 self.fall_back(line);
             }
             passes
@@ -869,6 +891,39 @@ impl LineSolve<'_, '_> {
             }
         }
         worst
+    }
+
+    /// Whether the iterate moved the line's particles more than [`THROWN_ABOVE`] times as far
+    /// from the start of the substep as the prediction did (mass-weighted squared distances,
+    /// each particle's share of the prediction's raised to the line's pins' largest move).
+    ///
+    /// # Safety
+    /// As for [`LineSolve::restore_prediction`].
+    unsafe fn thrown(&self, line: &LineRef) -> bool {
+        let (mut iterate, mut predicted, mut mass, mut pins_moved) = (0.0, 0.0, 0.0, 0.0f64);
+        for (j, &p) in line.particles.iter().enumerate() {
+            let p = p as usize;
+            // SAFETY: in bounds (`check`, the caller's contract).
+            unsafe {
+                let (x, start) = (
+                    self.position.get_unchecked(p),
+                    self.previous.get_unchecked(p),
+                );
+                let w = self.w(p);
+                if w > 0.0 {
+                    let at = self
+                        .scratch
+                        .predicted
+                        .get_unchecked(line.particle_offset + j);
+                    iterate += (x - start).length_squared() / w;
+                    predicted += (at - start).length_squared() / w;
+                    mass += 1.0 / w;
+                } else {
+                    pins_moved = pins_moved.max((x - start).length_squared());
+                }
+            }
+        }
+        iterate > THROWN_ABOVE * (predicted + mass * pins_moved)
     }
 
     /// `(Σ m|x − x̃|², Σ m|x* − x̃|²)` over the line's movable particles: how far the iterate `x`

@@ -37,7 +37,8 @@
 //!
 //! A projected substep whose passes end unconverged and leave the tree worse off than its
 //! prediction (a larger error, or mass-weighted farther from it than
-//! [`WARM_START_REACH`](super::direct::WARM_START_REACH) times the start of the substep) is
+//! [`WARM_START_REACH`](super::direct::WARM_START_REACH) times the start of the substep, or
+//! its loads thrown, see [`THROWN_ABOVE`](super::direct::THROWN_ABOVE)) is
 //! put back at the prediction and swept once instead, unless the iterate is nearly on its
 //! constraints, nearer them than the sweep and not far off ([`TreeSolve::fall_back`], with
 //! the rule of the lines): a sweep cannot blow up, and Gauss–Newton passes that wander can
@@ -437,8 +438,8 @@ impl TreeSolve<'_, '_> {
                 let (more, again) = self.second_try(&view, curvature);
                 (passes, converged) = (passes + more, again);
             }
-            // (Where the passes left the tree worse off than its prediction: see the module's
-            // docs.)
+            // (Where the passes left the tree worse off than its prediction, or threw its loads:
+            // see the module's docs.)
             if !converged && keeps && self.unconverged_too_far(&view, curvature, predicted) {
                 self.fall_back(&view, s, curvature);
             }

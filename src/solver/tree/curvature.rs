@@ -171,8 +171,9 @@ impl TreeSolve<'_, '_> {
     }
 
     /// Whether an unconverged iterate is worse than the prediction it started from (`predicted`
-    /// its error) or farther from it than [`WARM_START_REACH`](super::super::direct::WARM_START_REACH)
-    /// times the start of the substep (mass-weighted).
+    /// its error), farther from it than [`WARM_START_REACH`](super::super::direct::WARM_START_REACH)
+    /// times the start of the substep (mass-weighted), or has thrown its loads
+    /// ([`TreeSolve::thrown`]).
     ///
     /// # Safety
     /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
@@ -186,8 +187,38 @@ impl TreeSolve<'_, '_> {
         unsafe {
             let (reach, start) = self.distances(view, c);
             let r = super::super::direct::WARM_START_REACH;
-            self.residual(view) > predicted || reach > r * r * start
+            self.residual(view) > predicted || reach > r * r * start || self.thrown(view, c)
         }
+    }
+
+    /// Whether the iterate moved the tree's particles more than
+    /// [`THROWN_ABOVE`](super::super::direct::THROWN_ABOVE) times as far from the start of the
+    /// substep as the prediction did (mass-weighted squared distances, each particle's share of
+    /// the prediction's raised to the tree's pins' largest move).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
+    unsafe fn thrown(&self, view: &TreeView, c: &[TreeCurvature]) -> bool {
+        let (mut iterate, mut predicted, mut mass, mut pins_moved) = (0.0, 0.0, 0.0, 0.0f64);
+        for (node, &p) in c.iter().zip(view.particle) {
+            let p = p as usize;
+            // SAFETY: in bounds (`check`) and this task's (caller).
+            let (w, x, start) = unsafe {
+                (
+                    *self.inverse_mass.get_unchecked(p),
+                    self.position.get_unchecked(p),
+                    self.previous.get_unchecked(p),
+                )
+            };
+            if w > 0.0 {
+                iterate += (x - start).length_squared() / w;
+                predicted += (node.predicted - start).length_squared() / w;
+                mass += 1.0 / w;
+            } else {
+                pins_moved = pins_moved.max((x - start).length_squared());
+            }
+        }
+        iterate > super::super::direct::THROWN_ABOVE * (predicted + mass * pins_moved)
     }
 
     /// A sweep from the substep's prediction instead of an unconverged iterate — unless the
