@@ -36,7 +36,9 @@
 //! the projection has still not converged after [`FULL_NEWTON_AFTER`] passes, full Newton
 //! passes (the curvature in every pass, the residual measured against the kept prediction) take
 //! over: Gauss–Newton alone does not converge on loads 10⁵–10⁶ times a link's mass. A line
-//! pinned at both ends takes both too, its last stick closing the loop ([`closure`]).
+//! pinned at both ends takes both too, its last stick closing the loop ([`closure`]). Such a
+//! projection that converged on a far root (a load thrown round its pin), or did not converge
+//! while its pins stood still, is tried again from the start of the substep ([`second_try`]).
 //!
 //! Each substep starts from the last substep's multipliers (a warm start along the start
 //! directions: constraint forces change little between substeps; taken back if it makes the
@@ -127,6 +129,7 @@ use curvature::Root;
 
 mod closure;
 mod curvature;
+mod second_try;
 use glam::DVec3;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -721,7 +724,8 @@ impl LineSolve<'_, '_> {
     /// within [`CURVATURE_BELOW`]: the first pass takes the constraints' curvature where the
     /// substep began projected or SHAKE failed in a tense line (not `Restarted`), and where
     /// Gauss–Newton has not converged after
-    /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over. Returns the passes taken.
+    /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over; a result on a far root, or
+    /// unconverged, gets a [`second_try`]. Returns the passes taken.
     ///
     /// # Safety
     /// As for [`LineSolve::start`].
@@ -765,6 +769,11 @@ impl LineSolve<'_, '_> {
             passes += taken;
             if let (false, Some(root)) = (converged, root) {
                 let (taken, again) = self.full_newton(line, root, MAX_PASSES - passes);
+                (passes, converged) = (passes + taken, again);
+            }
+            // (On a far root, or unconverged: see [`second_try`].)
+            if let Some(root) = root {
+                let (taken, again) = self.second_try(line, root, converged);
                 (passes, converged) = (passes + taken, again);
             }
             // (Worse off than the prediction, or its loads thrown: see the module's docs.)
