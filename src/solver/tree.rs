@@ -433,8 +433,9 @@ impl TreeSolve<'_, '_> {
             } else {
                 self.project(&view, s, rescue, predicted)
             };
-            // (Projected substeps only: SHAKE's result is no projection, nor meant to be one.)
-            if rescuable && s[0].mode != LineMode::Shake {
+            // (Projected substeps only: SHAKE's result is no projection, nor meant to be one.
+            // Also beyond `CURVATURE_BELOW`, where its result must be near enough to keep.)
+            if keeps && s[0].mode != LineMode::Shake {
                 let (more, again) = self.second_try(&view, curvature);
                 (passes, converged) = (passes + more, again);
             }

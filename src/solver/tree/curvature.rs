@@ -28,7 +28,11 @@
 //! root of the equations (a load thrown round its pin). Full Newton passes from the start then
 //! find the near one. Measured with the random scan of `tests/direct.rs` (2109 scenes per
 //! kick, `SCAN_SCENES=2400`): energy gains of 11–19 % of a scene's scale at kicks of 2 and
-//! 10 m/s gone (largest gain 1.75 %), failures at 100 m/s 6 → 2.
+//! 10 m/s gone (largest gain 1.75 %), failures at 100 m/s 6 → 2. The second try also runs
+//! where the prediction is beyond [`CURVATURE_BELOW`](super::super::direct::CURVATURE_BELOW)
+//! (no curvature pass, Gauss–Newton passes only), its result kept only where it is near enough
+//! to be a projection ([`TreeSolve::plausible`]): at one substep kicked by 30 m/s 66 → 42 of
+//! 506 scenes failing, the largest energy gain 584 → 2.3 times a scene's scale.
 
 use super::super::direct::{in_system, violation};
 use super::super::kkt::{self, Link, Load, Reduced, Subtree};
@@ -112,7 +116,8 @@ impl TreeSolve<'_, '_> {
     /// scans with pins jumping 0.2 m per step: 4588 second tries, 1240 of them in vain, +2.8 %
     /// passes, failures 11 → 3). Full Newton passes from the start of the substep (λ = 0, the
     /// iterate kept in `c`); their result stays where it converged nearer the prediction (or
-    /// the first did not converge), else the first is put back. Returns the passes taken.
+    /// the first did not converge) and is near enough to be a projection
+    /// ([`TreeSolve::plausible`]), else the first is put back. Returns the passes taken.
     ///
     /// # Safety
     /// As for [`TreeSolve::full_newton`], and the prediction was kept this substep.
@@ -131,12 +136,53 @@ impl TreeSolve<'_, '_> {
             self.swap_iterate(view, c, true);
             let (passes, again) = self.full_newton(view, c, super::MAX_PASSES);
             let (second, _) = self.distances(view, c);
-            let kept = again && (!converged || second < first);
+            let kept =
+                again && (!converged || second < first) && self.plausible(view, second, start);
             if !kept {
                 self.swap_iterate(view, c, false);
             }
             (passes, kept || converged)
         }
+    }
+
+    /// Whether a second try's result, `second` (`Σ m|x − x̃|²`) from the prediction with the
+    /// start of the substep `start` from it, is near enough to be a projection: no more than
+    /// [`WARM_START_REACH`](super::super::direct::WARM_START_REACH) times as far as the start,
+    /// or within the start plus the pins' reach (`Σ m · d²`, `d` the pins' largest move this
+    /// substep: a point that satisfies the constraints once the pins moved is that much farther
+    /// from the start at most) — the bound lines use for their second try (see
+    /// `solver::direct`'s `second_try`). Full Newton from a start far off its constraints
+    /// (beyond [`CURVATURE_BELOW`](super::super::direct::CURVATURE_BELOW), where second tries
+    /// run too) can converge anywhere: measured with the random chains and trees of
+    /// `tests/direct.rs` (scratch scans), second tries beyond it without this bound cut the
+    /// scenes failing at one substep kicked by 30 m/s from 66 to 42 of 506 but let a tree kicked
+    /// by 100 m/s at 8 substeps stretch 5·10⁵ link lengths; with it 42 fail, the largest energy
+    /// gain 2.3 times a scene's scale instead of 584, and the 100 m/s scenes as before.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
+    unsafe fn plausible(&self, view: &TreeView, second: f64, start: f64) -> bool {
+        let r = super::super::direct::WARM_START_REACH;
+        if second <= r * r * start {
+            return true;
+        }
+        let (mut mass, mut moved) = (0.0, 0.0f64);
+        for &p in view.particle {
+            let p = p as usize;
+            // SAFETY: in bounds (`check`) and this task's (caller).
+            let (w, by) = unsafe {
+                (
+                    *self.inverse_mass.get_unchecked(p),
+                    self.position.get_unchecked(p) - self.previous.get_unchecked(p),
+                )
+            };
+            if w > 0.0 {
+                mass += 1.0 / w;
+            } else {
+                moved = moved.max(by.length_squared());
+            }
+        }
+        second.sqrt() <= start.sqrt() + (mass * moved).sqrt()
     }
 
     /// The largest `|C + α̃λ|/L` at the kept prediction with the last substep's multipliers (the
