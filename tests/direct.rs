@@ -607,9 +607,11 @@ fn a_rope_between_waving_pins_never_blows_up() {
 /// Scenes of [`random_heavy_scene`] at one substep per step whose pins jump 5 cm back and
 /// forth every two steps (3.2 m/s): where the passes of a substep ran out short of converging
 /// but within 1 % of the constraints, the iterate is kept rather than replaced by a sweep from
-/// the prediction (`NEARLY_ON` in `solver::direct`; a review saw such iterates 4·10⁻⁹–7·10⁻³ off). Measured over 2 s: largest strain 0.12–0.64 % (rigid
-/// sticks and rope stretch); with every unconverged projection worse off than its prediction
-/// swept (the rule before), 250–495 %, the sweep leaving what the passes had nearly solved.
+/// the prediction (`NEARLY_ON` in `solver::direct`; a review saw such iterates
+/// 4·10⁻⁹–7·10⁻³ off). Measured over 2 s: largest strain 0.06–0.47 % (rigid sticks and rope
+/// stretch; 0.12–0.64 % before a line's far root got a second try); with every unconverged
+/// projection worse off than its prediction swept (the rule before), 250–495 %, the sweep
+/// leaving what the passes had nearly solved.
 #[test]
 fn nearly_converged_projections_are_kept_where_pins_jump() {
     let config = StepConfig {
