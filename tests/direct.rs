@@ -381,24 +381,14 @@ fn scan_random_heavy_scenes(
         ..config(0.0, true)
     };
     let strain_bound = strain_bound.unwrap_or(0.01);
-    let h = config.substep();
     let (mut built, mut worst, mut worst_rise) = (0, 0.0f64, f64::MIN);
     let mut failed = Vec::new();
     for seed in 1..=scenes {
-        let Some((mut solver, scale)) = random_heavy_scene(seed, (heaviest, kick), mix, h) else {
+        let Some((strain, rise, finite)) =
+            run_random_heavy_scene(seed, (heaviest, kick), mix, &config)
+        else {
             continue;
         };
-        solver.step(&config);
-        let start = energy_with_springs(&solver, h);
-        let scale = scale + solver.particles.kinetic_energy(h);
-        let (mut strain, mut highest) = (0.0f64, f64::MIN);
-        for _ in 1..128 {
-            solver.step(&config);
-            strain = strain.max(max_stretch_or_strain(&solver));
-            highest = highest.max(energy_with_springs(&solver, h));
-        }
-        let rise = (highest - start) / scale;
-        let finite = solver.particles.all_finite();
         if !finite || strain >= strain_bound || rise >= 0.1 {
             failed.push(format!(
                 "{seed}: strain {strain:.2e}, rise {rise:.2e}, finite {finite}"
@@ -417,6 +407,31 @@ fn scan_random_heavy_scenes(
         built >= scenes as usize / 2,
         "{name}: only {built} scenes built"
     );
+}
+
+/// Runs scene `seed` of [`random_heavy_scene`] for 2 s under `config`: its largest
+/// [`max_stretch_or_strain`], its largest energy ([`energy_with_springs`]) above its value after
+/// the first step relative to its scale (`m·g·L` plus the kick's kinetic energy), and whether it
+/// stayed finite; `None` where the scene is not built.
+fn run_random_heavy_scene(
+    seed: u64,
+    (heaviest, kick): (f64, f64),
+    mix: Mix,
+    config: &StepConfig,
+) -> Option<(f64, f64, bool)> {
+    let h = config.substep();
+    let (mut solver, scale) = random_heavy_scene(seed, (heaviest, kick), mix, h)?;
+    solver.step(config);
+    let start = energy_with_springs(&solver, h);
+    let scale = scale + solver.particles.kinetic_energy(h);
+    let (mut strain, mut highest) = (0.0f64, f64::MIN);
+    for _ in 1..128 {
+        solver.step(config);
+        strain = strain.max(max_stretch_or_strain(&solver));
+        highest = highest.max(energy_with_springs(&solver, h));
+    }
+    let rise = (highest - start) / scale;
+    Some((strain, rise, solver.particles.all_finite()))
 }
 
 /// A number from the environment variable `name`, else `default`.
@@ -502,32 +517,21 @@ fn random_heavy_chains_and_trees_at_one_substep_never_blow_up() {
 }
 
 /// Scene `seed` of [`random_heavy_scene`] kicked by up to 30 m/s, run for 2 s at one substep
-/// per step: its largest [`max_stretch_or_strain`] and its largest energy above its value after
-/// the first step, relative to its scale (as [`scan_random_heavy_scenes`] measures them).
-/// Asserts it finite.
+/// per step ([`run_random_heavy_scene`]): its largest strain and its largest energy rise,
+/// printed. Asserts it built and finite.
 fn kicked_at_one_substep(seed: u64) -> (f64, f64) {
     let config = StepConfig {
         substeps: 1,
         ..config(0.0, true)
     };
-    let h = config.substep();
-    let (mut solver, scale) = random_heavy_scene(seed, (4.0, 30.0), Mix::LINKS, h).unwrap();
-    solver.step(&config);
-    let start = energy_with_springs(&solver, h);
-    let scale = scale + solver.particles.kinetic_energy(h);
-    let (mut strain, mut highest) = (0.0f64, f64::MIN);
-    for _ in 1..128 {
-        solver.step(&config);
-        strain = strain.max(max_stretch_or_strain(&solver));
-        highest = highest.max(energy_with_springs(&solver, h));
-    }
-    let rise = (highest - start) / scale;
+    let (strain, rise, finite) =
+        run_random_heavy_scene(seed, (4.0, 30.0), Mix::LINKS, &config).unwrap();
     println!(
         "scene {seed}, kicked at one substep: largest strain {:.3e} %, energy at most {:+.2} % of its scale above its start",
         strain * 100.0,
         rise * 100.0
     );
-    assert!(solver.particles.all_finite(), "scene {seed}");
+    assert!(finite, "scene {seed}");
     (strain, rise)
 }
 
