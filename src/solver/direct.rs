@@ -312,12 +312,13 @@ pub(crate) const NEARLY_ON: f64 = 0.01;
 pub(crate) const FARTHER_THAN_A_SWEEP: f64 = 1e4;
 
 /// An unconverged projection that moved the particles more than this times as far from the
-/// start of the substep as the prediction did (`Σ m|x − x*|²` against `Σ m|x̃ − x*|²`, each
-/// particle's share of the latter raised to its pins' largest move this substep) is swept from
-/// the prediction instead, as one worse off than its prediction is (see
+/// start of the substep as the prediction did (`Σ m|x − x*|²` against `Σ m|x̃ − x*|²` plus
+/// `Σ m d²`, `d` the largest move of its pins this substep: [`LineSolve::pins_reach`]) is
+/// swept from the prediction instead, as one worse off than its prediction is (see
 /// [`LineSolve::fall_back`]): it has thrown its loads. A projection from a prediction whose start
-/// satisfies the constraints moves no particle farther from the start than twice the
-/// prediction (`(2)² = 4`); unconverged passes far from the constraints can fling a heavy load
+/// satisfies the constraints moves the particles (mass-weighted) no farther from the start
+/// than twice the prediction (`2² = 4`; the bound is twice that again, `4² = 16`); unconverged
+/// passes far from the constraints can fling a heavy load
 /// across many link lengths with the residual still below the prediction's. Measured with the
 /// random chains and trees of `tests/direct.rs` at one substep kicked by 30 m/s (506 scenes):
 /// the largest energy gain went from 1940 to 584 times a scene's scale, the scenes gaining
@@ -904,35 +905,30 @@ impl LineSolve<'_, '_> {
 
     /// Whether the iterate moved the line's particles more than [`THROWN_ABOVE`] times as far
     /// from the start of the substep as the prediction did (mass-weighted squared distances,
-    /// each particle's share of the prediction's raised to the line's pins' largest move).
+    /// the prediction's plus the pins' reach, [`LineSolve::pins_reach`]).
     ///
     /// # Safety
     /// As for [`LineSolve::restore_prediction`].
     unsafe fn thrown(&self, line: &LineRef) -> bool {
-        let (mut iterate, mut predicted, mut mass, mut pins_moved) = (0.0, 0.0, 0.0, 0.0f64);
+        let (mut iterate, mut predicted) = (0.0, 0.0);
         for (j, &p) in line.particles.iter().enumerate() {
             let p = p as usize;
             // SAFETY: in bounds (`check`, the caller's contract).
             unsafe {
-                let (x, start) = (
-                    self.position.get_unchecked(p),
-                    self.previous.get_unchecked(p),
-                );
                 let w = self.w(p);
                 if w > 0.0 {
+                    let start = self.previous.get_unchecked(p);
                     let at = self
                         .scratch
                         .predicted
                         .get_unchecked(line.particle_offset + j);
-                    iterate += (x - start).length_squared() / w;
+                    iterate += (self.position.get_unchecked(p) - start).length_squared() / w;
                     predicted += (at - start).length_squared() / w;
-                    mass += 1.0 / w;
-                } else {
-                    pins_moved = pins_moved.max((x - start).length_squared());
                 }
             }
         }
-        iterate > THROWN_ABOVE * (predicted + mass * pins_moved)
+        // SAFETY: as above (this function's contract).
+        iterate > THROWN_ABOVE * (predicted + unsafe { self.pins_reach(line) })
     }
 
     /// `(Σ m|x − x̃|², Σ m|x* − x̃|²)` over the line's movable particles: how far the iterate `x`

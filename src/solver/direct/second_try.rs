@@ -8,8 +8,9 @@
 //! equations, farther away — a heavy load thrown round its pin, with energy the line never had.
 //! In a scratch variant of the random chains and trees of `tests/direct.rs` with their pins
 //! waving 5 cm (one scene kept as `a_rope_between_waving_pins_never_blows_up`) one such root
-//! followed another until a rope stretched 10⁶ times its links' length. Trees have had this second try since they got
-//! curvature passes ([`TreeSolve::second_try`](super::super::tree::TreeSolve)).
+//! followed another until a rope stretched 10⁶ times its links' length. Trees have had this
+//! second try since they got curvature passes
+//! ([`TreeSolve::second_try`](super::super::tree::TreeSolve)).
 //!
 //! # How
 //! Where a line alone in its island and within reach of its curvature passes (see
@@ -83,7 +84,7 @@ impl LineSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`LineSolve::restore_prediction`].
-    unsafe fn pins_reach(&self, line: &LineRef) -> f64 {
+    pub(super) unsafe fn pins_reach(&self, line: &LineRef) -> f64 {
         let (mut mass, mut moved) = (0.0, 0.0f64);
         for &p in line.particles {
             let p = p as usize;

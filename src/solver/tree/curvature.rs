@@ -163,9 +163,19 @@ impl TreeSolve<'_, '_> {
     /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
     unsafe fn plausible(&self, view: &TreeView, second: f64, start: f64) -> bool {
         let r = super::super::direct::WARM_START_REACH;
-        if second <= r * r * start {
-            return true;
-        }
+        // SAFETY: as above (this function's contract).
+        second <= r * r * start
+            || second.sqrt() <= start.sqrt() + unsafe { self.pins_reach(view) }.sqrt()
+    }
+
+    /// `Σ m · d²` over the tree's movable particles, `d` the largest move of its immovable
+    /// particles this substep: how far (mass-weighted, squared) the start of the substep may be
+    /// from a point that satisfies the constraints once the pins moved (the tree moved with its
+    /// pin).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`]; `view` passed [`TreeSolve::check`].
+    unsafe fn pins_reach(&self, view: &TreeView) -> f64 {
         let (mut mass, mut moved) = (0.0, 0.0f64);
         for &p in view.particle {
             let p = p as usize;
@@ -182,7 +192,7 @@ impl TreeSolve<'_, '_> {
                 moved = moved.max(by.length_squared());
             }
         }
-        second.sqrt() <= start.sqrt() + (mass * moved).sqrt()
+        mass * moved
     }
 
     /// The largest `|C + α̃λ|/L` at the kept prediction with the last substep's multipliers (the
@@ -239,13 +249,13 @@ impl TreeSolve<'_, '_> {
 
     /// Whether the iterate moved the tree's particles more than
     /// [`THROWN_ABOVE`](super::super::direct::THROWN_ABOVE) times as far from the start of the
-    /// substep as the prediction did (mass-weighted squared distances, each particle's share of
-    /// the prediction's raised to the tree's pins' largest move).
+    /// substep as the prediction did (mass-weighted squared distances, the prediction's plus
+    /// the pins' reach, [`TreeSolve::pins_reach`]).
     ///
     /// # Safety
     /// As for [`TreeSolve::keep_prediction`], which kept the prediction this substep.
     unsafe fn thrown(&self, view: &TreeView, c: &[TreeCurvature]) -> bool {
-        let (mut iterate, mut predicted, mut mass, mut pins_moved) = (0.0, 0.0, 0.0, 0.0f64);
+        let (mut iterate, mut predicted) = (0.0, 0.0);
         for (node, &p) in c.iter().zip(view.particle) {
             let p = p as usize;
             // SAFETY: in bounds (`check`) and this task's (caller).
@@ -259,12 +269,11 @@ impl TreeSolve<'_, '_> {
             if w > 0.0 {
                 iterate += (x - start).length_squared() / w;
                 predicted += (node.predicted - start).length_squared() / w;
-                mass += 1.0 / w;
-            } else {
-                pins_moved = pins_moved.max((x - start).length_squared());
             }
         }
-        iterate > super::super::direct::THROWN_ABOVE * (predicted + mass * pins_moved)
+        // SAFETY: as above (this function's contract).
+        let reach = unsafe { self.pins_reach(view) };
+        iterate > super::super::direct::THROWN_ABOVE * (predicted + reach)
     }
 
     /// A sweep from the substep's prediction instead of an unconverged iterate — unless the
