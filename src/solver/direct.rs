@@ -62,11 +62,12 @@
 //! [`NEARLY_ON`] of its rigid sticks' constraints, nearer them than the sweep and not
 //! [`FARTHER_THAN_A_SWEEP`] from the prediction: then it is kept (the error compared first
 //! counts a multiplier not yet released, and a review found iterates 4·10⁻⁹–7·10⁻³ off their
-//! constraints swept into 46–310 % strain where pins jump each step). So is one that moved the
-//! particles more than [`THROWN_ABOVE`] times as far from the start of the substep as the
-//! prediction did, its residual smaller or not: unconverged passes can throw a heavy load
-//! across many link lengths (a random rope at one substep kicked by 30 m/s gained 1940 times
-//! its scale in one step). Trees use the same rule,
+//! constraints swept into 46–310 % strain where pins jump each step). An unconverged projection
+//! that has thrown its loads — moved the particles (mass-weighted squared distances) more than
+//! [`THROWN_ABOVE`] times as far from the start of the substep as the prediction did, its
+//! residual smaller or not — goes to the same fallback, the same exception included:
+//! unconverged passes can throw a heavy load across many link lengths (a random rope at one
+//! substep kicked by 30 m/s gained 1940 times its scale in one step). Trees use the same rule,
 //! and also try the sweep where the iterate is farther from the prediction than
 //! [`WARM_START_REACH`] times the start of the substep — not lines, where that changed which
 //! energy a rope teleported a kilometre kept. Measured with the random chains and trees of
@@ -74,7 +75,8 @@
 //! the largest strain went from 2780 % to 255 % and the largest energy gain from 76 % to 0.13 %
 //! of a scene's scale; kicked by 30 m/s, from 2.6·10¹⁰ link lengths and 2.9·10¹⁵ times the
 //! scale to 7400 and 1900 times (71 of 506 scenes still stretch beyond 1 %; with
-//! [`THROWN_ABOVE`] 934 link lengths and 584 times, the same 71); at 8 substeps
+//! [`THROWN_ABOVE`] 934 link lengths and 584 times, the same 71; with the second tries of
+//! lines and, beyond `CURVATURE_BELOW`, trees 606 and 2.3 times, 42 of 506); at 8 substeps
 //! kicked by 100 m/s (2109 scenes) the worse of the two that fail went from 6.3·10⁶ to 447 link
 //! lengths, the other from 89 to 445, their largest energy gain from 3.3 to 18 times the
 //! scale; with damping 0.5/s one failure fewer. The report's scenes are unchanged (the same errors; the same Newton passes on the
@@ -136,7 +138,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// A line is solved once its largest `|C + α̃λ|/L` is below this.
 pub const TOLERANCE: f64 = 1e-9;
 
-/// Newton passes per line and round at most.
+/// Newton passes per line and round at most — but for a second try from the start of the
+/// substep, which may take as many again (lines: [`second_try`]; trees alike).
 pub const MAX_PASSES: u32 = 32;
 
 /// SHAKE is used for a line only while every stick's predicted turn in a substep has a cosine
@@ -214,6 +217,12 @@ pub(crate) fn tension_stiffness(lambda: f64, length: f64) -> f64 {
 /// kilometre, 125 m per substep — and Gauss–Newton's unconverged passes take most of the jump's
 /// energy out; with full Newton passes there too, that rope kept 2600–4600 J whirling at 4 s
 /// instead of settling (about −1 J), beyond the hard case's bound on its energy after 4 s.
+/// (Trees take full Newton passes beyond it in one place: a second try from the start of the
+/// substep, whose result they keep only where it is near enough to be a projection, see
+/// [`TreeSolve::plausible`](super::tree::TreeSolve); lines' second tries stay below it — beyond,
+/// they cut the scenes failing at one substep kicked by 30 m/s from 42 to 25 of 506 in a
+/// scratch scan, but changed how that teleported rope settled: 1.26 J at 4 s, then a rise of
+/// 0.22 J, beyond the hard case's bound.)
 ///
 /// Below it, they are what keeps heavy loads hit hard from blowing up: far from the
 /// constraints Gauss–Newton wanders, and its active set cycles where rope links snap taut.
@@ -449,8 +458,9 @@ pub(crate) struct LineScratch {
     /// where the substep's prediction put it, for full Newton passes (lines alone in their
     /// island only).
     pub predicted: Vec<DVec3>,
-    /// Per line particle: an unconverged iterate's positions, kept while a sweep from the
-    /// prediction is tried instead (see [`LineSolve::fall_back`]).
+    /// Per line particle: an iterate's positions, kept while a sweep from the prediction
+    /// ([`LineSolve::fall_back`]) or a second try from the start of the substep
+    /// ([`second_try`]) is tried instead.
     pub kept: Vec<DVec3>,
     /// Per line stick: that iterate's multipliers.
     pub kept_lambda: Vec<f64>,
@@ -726,7 +736,8 @@ impl LineSolve<'_, '_> {
     /// substep began projected or SHAKE failed in a tense line (not `Restarted`), and where
     /// Gauss–Newton has not converged after
     /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over; a result on a far root, or
-    /// unconverged, gets a [`second_try`]. Returns the passes taken.
+    /// unconverged while the line's pins stand still, gets a [`second_try`]. Returns the passes
+    /// taken.
     ///
     /// # Safety
     /// As for [`LineSolve::start`].
@@ -928,7 +939,8 @@ impl LineSolve<'_, '_> {
             }
         }
         // SAFETY: as above (this function's contract).
-        iterate > THROWN_ABOVE * (predicted + unsafe { self.pins_reach(line) })
+        // (A NaN iterate counts as thrown.)
+        iterate.is_nan() || iterate > THROWN_ABOVE * (predicted + unsafe { self.pins_reach(line) })
     }
 
     /// `(Σ m|x − x̃|², Σ m|x* − x̃|²)` over the line's movable particles: how far the iterate `x`

@@ -509,6 +509,35 @@ mod tests {
         assert_matches_dense(ropes);
     }
 
+    /// A second try's save restarts the line from the start of the substep with λ = 0 (pins left
+    /// where they are), and its restore puts the iterate back bit for bit
+    /// (`LineSolve::swap_iterate`, see [`second_try`](super::super::second_try)).
+    #[test]
+    fn a_second_try_saves_and_restores_the_iterate_exactly() {
+        let c = case([0.0, 1.0, 2.0, 0.5, 0.001]);
+        let moved = |j: usize| c.x[j] + DVec3::new(0.013, -0.007, 0.002) * (j as f64 + 0.3);
+        let iterate: Vec<DVec3> = (0..5).map(moved).collect();
+        let multipliers = [-0.2, -0.1, 0.05, -0.3];
+        let (mut position, mut lambda) = (iterate.clone(), multipliers);
+        let mut scratch = LineScratch::default();
+        scratch.resize(4, 5, 0);
+        let slices = (&mut position[..], &mut lambda[..], &mut scratch);
+        // SAFETY: this test alone holds the slices; `check` passed.
+        let (restarted, zeroed) = on_line(&c, slices, |solve, line| unsafe {
+            solve.swap_iterate(line, true);
+            let at: Vec<DVec3> = (0..5).map(|j| solve.position.get(j)).collect();
+            let zeroed = (0..4).all(|k| solve.lambda.get(k) == 0.0);
+            solve.swap_iterate(line, false);
+            (at, zeroed)
+        });
+        // The start of the substep is `c.x` (`on_line`'s previous positions); the pin stays.
+        assert_eq!(restarted[0], iterate[0]);
+        assert_eq!(restarted[1..], c.x[1..]);
+        assert!(zeroed);
+        assert_eq!(position, iterate);
+        assert_eq!(lambda, multipliers);
+    }
+
     /// Full Newton passes from an iterate moved off the prediction (`M (x − x̃) ≠ 0`) converge
     /// to the projection: the constraints hold and `M (x − x̃) = ∇C(x)ᵀ λ` (rigid sticks), for
     /// a line rooted at either end.

@@ -54,12 +54,12 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
             let (first, start) = self.distances(line);
-            let near = |reach: f64| {
-                first <= WARM_START_REACH * WARM_START_REACH * start
-                    || first.sqrt() <= start.sqrt() + reach.sqrt()
+            let near_start = |iterate: f64, reach: f64| {
+                iterate <= WARM_START_REACH * WARM_START_REACH * start
+                    || iterate.sqrt() <= start.sqrt() + reach.sqrt()
             };
             let skip = if converged {
-                near(self.pins_reach(line))
+                near_start(first, self.pins_reach(line))
             } else {
                 self.pins_reach(line) > 0.0
             };
@@ -69,7 +69,10 @@ impl LineSolve<'_, '_> {
             self.swap_iterate(line, true);
             let (passes, again) = self.full_newton(line, root, MAX_PASSES);
             let (second, _) = self.distances(line);
-            let kept = again && (!converged || second < first);
+            // (The second kept over a NaN first; from an unconverged first
+            // only where it is near enough to be a projection, as trees' `plausible` has it.)
+            let nearer = !converged || second < first || first.is_nan();
+            let kept = again && nearer && (converged || near_start(second, self.pins_reach(line)));
             if !kept {
                 self.swap_iterate(line, false);
             }

@@ -136,8 +136,9 @@ impl TreeSolve<'_, '_> {
             self.swap_iterate(view, c, true);
             let (passes, again) = self.full_newton(view, c, super::MAX_PASSES);
             let (second, _) = self.distances(view, c);
-            let kept =
-                again && (!converged || second < first) && self.plausible(view, second, start);
+            // (The second kept over a NaN first.)
+            let nearer = !converged || second < first || first.is_nan();
+            let kept = again && nearer && self.plausible(view, second, start);
             if !kept {
                 self.swap_iterate(view, c, false);
             }
@@ -273,7 +274,8 @@ impl TreeSolve<'_, '_> {
         }
         // SAFETY: as above (this function's contract).
         let reach = unsafe { self.pins_reach(view) };
-        iterate > super::super::direct::THROWN_ABOVE * (predicted + reach)
+        // (A NaN iterate counts as thrown.)
+        iterate > super::super::direct::THROWN_ABOVE * (predicted + reach) || iterate.is_nan()
     }
 
     /// A sweep from the substep's prediction instead of an unconverged iterate — unless the
