@@ -78,7 +78,7 @@
 //! [`THROWN_ABOVE`] 934 link lengths and 584 times, the same 71; with the second tries of
 //! lines and, beyond `CURVATURE_BELOW`, trees 606 and 2.3 times, 42 of 506); at 8 substeps
 //! kicked by 100 m/s (2109 scenes) the worse of the two that fail went from 6.3·10⁶ to 447 link
-//! lengths, the other from 89 to 445, their largest energy gain from 3.3 to 18 times the
+//! lengths (28 with the second tries), the other from 89 to 445, their largest energy gain from 3.3 to 18 times the
 //! scale; with damping 0.5/s one failure fewer. The report's scenes are unchanged (the same errors; the same Newton passes on the
 //! whipping 1000:1 chain, the 200-link chain and the 50 × 50 cloth by lines).
 //! A prediction whose error is beyond [`CURVATURE_BELOW`] is measured again before its
