@@ -219,10 +219,10 @@ pub(crate) fn tension_stiffness(lambda: f64, length: f64) -> f64 {
 /// instead of settling (about −1 J), beyond the hard case's bound on its energy after 4 s.
 /// (Trees take full Newton passes beyond it in one place: a second try from the start of the
 /// substep, whose result they keep only where it is near enough to be a projection, see
-/// [`TreeSolve::plausible`](super::tree::TreeSolve); lines' second tries stay below it — beyond,
-/// they cut the scenes failing at one substep kicked by 30 m/s from 42 to 25 of 506 in a
-/// scratch scan, but changed how that teleported rope settled: 1.26 J at 4 s, then a rise of
-/// 0.22 J, beyond the hard case's bound.)
+/// [`TreeSolve::plausible`](super::tree::TreeSolve); lines too, but only from a start of the
+/// substep within [`NEARLY_ON`] of its constraints, as the second try's argument needs, see
+/// [`second_try`]: from any start they changed how that teleported rope settled, 1.26 J at 4 s
+/// and then a rise of 0.22 J, beyond the hard case's bound.)
 ///
 /// Below it, they are what keeps heavy loads hit hard from blowing up: far from the
 /// constraints Gauss–Newton wanders, and its active set cycles where rope links snap taut.
@@ -736,8 +736,9 @@ impl LineSolve<'_, '_> {
     /// substep began projected or SHAKE failed in a tense line (not `Restarted`), and where
     /// Gauss–Newton has not converged after
     /// [`FULL_NEWTON_AFTER`] passes, full Newton passes take over; a result on a far root, or
-    /// unconverged while the line's pins stand still, gets a [`second_try`]. Returns the passes
-    /// taken.
+    /// unconverged while the line's pins stand still, gets a [`second_try`] (beyond
+    /// [`CURVATURE_BELOW`] too where the start of the substep is on its constraints). Returns the
+    /// passes taken.
     ///
     /// # Safety
     /// As for [`LineSolve::start`].
@@ -752,6 +753,7 @@ impl LineSolve<'_, '_> {
         unsafe {
             // (Both only where the prediction is within `CURVATURE_BELOW`: beyond, it is a jump,
             // whose energy Gauss–Newton's passes take out.)
+            let rescuable = root;
             let root = root.filter(|_| self.within_reach(line, begun));
             let curving = root.filter(|_| self.shake && start != Start::Restarted);
             let mut passes = 0;
@@ -783,8 +785,12 @@ impl LineSolve<'_, '_> {
                 let (taken, again) = self.full_newton(line, root, MAX_PASSES - passes);
                 (passes, converged) = (passes + taken, again);
             }
-            // (On a far root, or unconverged: see [`second_try`].)
-            if let Some(root) = root {
+            // (On a far root, or unconverged: see [`second_try`]. Beyond `CURVATURE_BELOW` only
+            // from a start on its constraints.)
+            let retry = root.or_else(|| {
+                rescuable.filter(|_| self.violation_at(line, &self.previous) < NEARLY_ON)
+            });
+            if let Some(root) = retry {
                 let (taken, again) = self.second_try(line, root, converged);
                 (passes, converged) = (passes + taken, again);
             }
@@ -886,13 +892,23 @@ impl LineSolve<'_, '_> {
         }
     }
 
-    /// The largest violation of the line's rigid sticks, `|C|/L` one-sided where a stick is
-    /// ([`violation`](self::violation); a spring's stretch is its own, sticks between immovable
-    /// particles are left out); `∞` where a length is not finite.
+    /// The largest violation of the line's rigid sticks at the iterate, `|C|/L` one-sided where
+    /// a stick is ([`violation`](self::violation); a spring's stretch is its own, sticks between
+    /// immovable particles are left out); `∞` where a length is not finite.
     ///
     /// # Safety
     /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`].
     unsafe fn violation(&self, line: &LineRef) -> f64 {
+        // SAFETY: as above (this function's contract).
+        unsafe { self.violation_at(line, &self.position) }
+    }
+
+    /// [`LineSolve::violation`] with the particles at `x` (the iterate, or the start of the
+    /// substep).
+    ///
+    /// # Safety
+    /// As for [`LineSolve::violation`]; `x` is as long as the positions.
+    unsafe fn violation_at(&self, line: &LineRef, x: &SharedSlice<'_, DVec3>) -> f64 {
         let mut worst: f64 = 0.0;
         for (k, &s) in line.sticks.iter().enumerate() {
             let s = s as usize;
@@ -902,8 +918,7 @@ impl LineSolve<'_, '_> {
                 if self.w(a) + self.w(b) <= 0.0 || self.compliance(s) > 0.0 {
                     continue;
                 }
-                let c = (self.position.get_unchecked(b) - self.position.get_unchecked(a)).length()
-                    - self.rest(s);
+                let c = (x.get_unchecked(b) - x.get_unchecked(a)).length() - self.rest(s);
                 let error = violation(self.kind(s), c) / self.rest(s).max(1e-12);
                 if error.is_nan() {
                     return f64::INFINITY;
