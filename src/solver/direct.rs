@@ -76,9 +76,10 @@
 //! of a scene's scale; kicked by 30 m/s, from 2.6·10¹⁰ link lengths and 2.9·10¹⁵ times the
 //! scale to 7400 and 1900 times (71 of 506 scenes still stretch beyond 1 %; with
 //! [`THROWN_ABOVE`] 934 link lengths and 584 times, the same 71; with the second tries of
-//! lines and, beyond `CURVATURE_BELOW`, trees 606 and 2.3 times, 42 of 506); at 8 substeps
-//! kicked by 100 m/s (2109 scenes) the worse of the two that fail went from 6.3·10⁶ to 447 link
-//! lengths (28 with the second tries), the other from 89 to 445, their largest energy gain from 3.3 to 18 times the
+//! lines and, beyond `CURVATURE_BELOW`, trees 606 and 2.3 times, 42 of 506; with lines' beyond
+//! it too, from a start on its constraints, 25 of 506); at 8 substeps kicked by 100 m/s (2109
+//! scenes) the worse of the two that fail went from 6.3·10⁶ to 447 link lengths (28 with the
+//! second tries), the other from 89 to 445, their largest energy gain from 3.3 to 18 times the
 //! scale; with damping 0.5/s one failure fewer. The report's scenes are unchanged (the same errors; the same Newton passes on the
 //! whipping 1000:1 chain, the 200-link chain and the 50 × 50 cloth by lines).
 //! A prediction whose error is beyond [`CURVATURE_BELOW`] is measured again before its
@@ -752,7 +753,8 @@ impl LineSolve<'_, '_> {
         // SAFETY: as for `start` (this function's contract).
         unsafe {
             // (Both only where the prediction is within `CURVATURE_BELOW`: beyond, it is a jump,
-            // whose energy Gauss–Newton's passes take out.)
+            // whose energy Gauss–Newton's passes take out — but for a second try from a start on
+            // its constraints, below.)
             let rescuable = root;
             let root = root.filter(|_| self.within_reach(line, begun));
             let curving = root.filter(|_| self.shake && start != Start::Restarted);

@@ -19,8 +19,9 @@
 //! than the start plus its pins' reach ([`LineSolve::pins_reach`]: a point that satisfies the
 //! constraints once the pins moved is that much farther at most), or ends unconverged while its
 //! pins stand still, its iterate is kept and full Newton passes run from the start of the
-//! substep (λ = 0). Their result stays where it converged nearer the prediction (or the first
-//! did not converge); else the first iterate is put back. Where the prediction is beyond
+//! substep (λ = 0). Their result stays where it converged nearer the prediction, or where the
+//! first did not converge and it is near enough to be a projection (within the bound above);
+//! else the first iterate is put back. Where the prediction is beyond
 //! [`CURVATURE_BELOW`](super::CURVATURE_BELOW) (no curvature passes ran) the same holds, but
 //! only from a start whose rigid sticks are within [`NEARLY_ON`](super::NEARLY_ON) of their
 //! constraints — the argument above needs that start; from any start the second tries changed
