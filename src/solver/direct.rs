@@ -857,16 +857,9 @@ impl LineSolve<'_, '_> {
     unsafe fn fall_back(&self, line: &LineRef) {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
-            let v = self.scratch;
             let (iterate, (moved, _)) = (self.violation(line), self.distances(line));
-            for (j, &p) in line.particles.iter().enumerate() {
-                let x = self.position.get_unchecked(p as usize);
-                v.kept.set_unchecked(line.particle_offset + j, x);
-            }
-            for (k, &s) in line.sticks.iter().enumerate() {
-                let lambda = self.lambda.get_unchecked(s as usize);
-                v.kept_lambda.set_unchecked(line.offset + k, lambda);
-            }
+            // (Kept in the scratch, the positions then put at the prediction.)
+            self.swap_iterate(line, true);
             self.restore_prediction(line);
             self.sweep(line);
             let keeps = iterate < NEARLY_ON
@@ -875,21 +868,15 @@ impl LineSolve<'_, '_> {
             if !keeps {
                 return;
             }
-            for (j, &p) in line.particles.iter().enumerate() {
-                if self.w(p as usize) > 0.0 {
-                    let x = v.kept.get_unchecked(line.particle_offset + j);
-                    self.position.set_unchecked(p as usize, x);
-                }
-            }
+            self.swap_iterate(line, false);
             for (k, &s) in line.sticks.iter().enumerate() {
                 let s = s as usize;
                 let (a, b) = (line.p(k), line.p(k + 1));
                 let c = (self.position.get_unchecked(b) - self.position.get_unchecked(a)).length()
                     - self.rest(s);
-                let lambda = v.kept_lambda.get_unchecked(line.offset + k);
-                let released = !in_system(self.kind(s), c, self.rest(s));
-                self.lambda
-                    .set_unchecked(s, if released { 0.0 } else { lambda });
+                if !in_system(self.kind(s), c, self.rest(s)) {
+                    self.lambda.set_unchecked(s, 0.0);
+                }
             }
         }
     }
