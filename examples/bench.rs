@@ -472,6 +472,7 @@ fn main() {
         damping: 0.0,
         sleep: None,
         shake: true,
+        symmetric_mass_ratio: world.resource::<VerletConfig>().symmetric_mass_ratio as f64,
     };
     let pool = ComputeTaskPool::get();
     let executor: &dyn Executor = if options.threads == Some(1) {

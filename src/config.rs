@@ -54,6 +54,14 @@ pub struct VerletConfig {
     /// gets two), and one pulled out of reach of the nearest is ignored, so a grabbed cloth
     /// still tears where it is pulled. Changing it rebuilds the topology.
     pub tether_anchors: u32,
+    /// An island solved by sweeps whose heaviest movable particle is more than this many times
+    /// its lightest runs its iterations in forward–backward pairs (symmetric Gauss–Seidel:
+    /// twice the sweep's cost at one iteration). A forward sweep alone can grow without bound
+    /// where heavy particles hang on light ones (a cloth hung by two corners with some
+    /// particles 100× heavier, kicked: see the crate README, "Hard cases"). Default 8;
+    /// `f32::INFINITY`: never; `1` or less: every swept island. NaN is replaced by the
+    /// default, with a warning.
+    pub symmetric_mass_ratio: f32,
 }
 
 /// How the sticks of an island are solved (the crate README, "Solvers", has the measurements).
@@ -144,6 +152,7 @@ impl Default for VerletConfig {
             method: SolveMethod::Auto,
             shake: true,
             tether_anchors: crate::solver::DEFAULT_TETHER_ANCHORS as u32,
+            symmetric_mass_ratio: crate::solver::SYMMETRIC_MASS_RATIO as f32,
         }
     }
 }

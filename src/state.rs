@@ -37,6 +37,7 @@ pub(crate) enum Problem {
     Gravity,
     Damping,
     TetherAnchors,
+    SymmetricMassRatio,
     Diverged,
     #[cfg_attr(not(any(feature = "avian2d", feature = "avian3d")), allow(dead_code))]
     Attachment,

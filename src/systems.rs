@@ -134,7 +134,8 @@ pub(crate) fn step_is_active(state: Res<VerletState>) -> bool {
 }
 
 /// The step's settings, with unusable values replaced: a non-finite gravity by zero, a NaN or
-/// negative damping by none (`+∞` stops every particle, which is what it means).
+/// negative damping by none (`+∞` stops every particle, which is what it means), a NaN
+/// symmetric mass ratio by the default.
 fn step_config(config: &VerletConfig, gravity: &Gravity, time: &Time) -> StepConfig {
     let gravity = if gravity.0.is_finite() {
         gravity.0.as_dvec3()
@@ -161,6 +162,10 @@ fn step_config(config: &VerletConfig, gravity: &Gravity, time: &Time) -> StepCon
             }),
         },
         shake: config.shake,
+        symmetric_mass_ratio: match config.symmetric_mass_ratio {
+            ratio if ratio.is_nan() => crate::solver::SYMMETRIC_MASS_RATIO,
+            ratio => ratio as f64,
+        },
     }
 }
 
@@ -176,6 +181,14 @@ fn warn_config(state: &mut VerletState, config: &VerletConfig, gravity: &Gravity
         let c = config.damping;
         state.warn(Entity::PLACEHOLDER, Problem::Damping, || {
             format!("VerletConfig damping {c} is NaN or negative; using none")
+        });
+    }
+    if config.symmetric_mass_ratio.is_nan() {
+        state.warn(Entity::PLACEHOLDER, Problem::SymmetricMassRatio, || {
+            format!(
+                "VerletConfig symmetric_mass_ratio is NaN; using {}",
+                crate::solver::SYMMETRIC_MASS_RATIO
+            )
         });
     }
     let anchors = config.tether_anchors;

@@ -49,9 +49,11 @@ fn energy_scale(app: &App, extent: f64) -> f64 {
 ///
 /// Measured: energy never above its start (peak −1.4·10⁻³ J below it). Swept, Gauss–Seidel
 /// moves the light end of the weight's link almost alone, so at 8 substeps the link holding the
-/// weight stretches 95 % at the bottom of the swing and 37 % at rest (≈ (1 + w_light/w_heavy)·
-/// g·h²/L); at 64 substeps 1.5 % / 0.6 %; with tethers 1.7 % / 0.004 %. Solved by lines (the
-/// default for a chain): below 10⁻⁸ at 8 substeps, swinging and at rest.
+/// weight stretches 98 % at the bottom of the swing and 38 % at rest (≈ (1 + w_light/w_heavy)·
+/// g·h²/L); at 64 substeps 1.6 % / 0.6 %; with tethers 1.0 % / 0.003 % (swept forward and
+/// back, as islands whose masses differ more than 8× are, `solver::symmetric`; forward alone
+/// 95 % / 37 %, 1.5 % / 0.6 %, 1.7 % / 0.004 %). Solved by lines (the default for a chain):
+/// below 10⁻⁸ at 8 substeps, swinging and at rest.
 #[test]
 fn heavy_weight_on_a_light_chain_settles_with_bounded_stretch() {
     for (method, substeps, tethers, bound_swing, bound_rest) in [
@@ -228,6 +230,51 @@ fn hundred_by_hundred_cloth_on_two_corners_stays_bounded() {
         );
         for (corner, start) in corners {
             assert_eq!(position(&app, corner), start, "pinned corner moved");
+        }
+    }
+}
+
+/// A weighted hammock: a 10 × 10 cloth of 5 cm sticks (1 kg particles) hung by its two top
+/// corners, every seventh particle a 1000 kg weight, swung sideways at 5 or 30 m/s, 10 s.
+///
+/// Measured: swept forward alone (`symmetric_mass_ratio: f32::INFINITY`, how every swept island
+/// was solved before), a mode of the sweep itself grows every substep: the energy went from
+/// 1.4·10⁵ J to 3.7·10¹² J (5 m/s) and from 5.8·10⁶ J to 1.7·10¹⁷ J (30 m/s; 100 kg weights:
+/// 5.1·10²⁹ J). Swept forward and back (the default: its masses differ 1000×, more than the
+/// ratio of 8): never above its first step's energy. See `solver::symmetric`.
+#[test]
+fn a_weighted_hammock_swung_hard_never_blows_up() {
+    for (speed, symmetric_mass_ratio) in [(5.0, 8.0), (30.0, 8.0), (5.0, f32::INFINITY)] {
+        let mut app = app();
+        app.insert_resource(VerletConfig {
+            symmetric_mass_ratio,
+            ..default()
+        });
+        let cloth = spawn(&mut app, |c| {
+            ClothBuilder::new(Vec3::ZERO, 10, 10, 0.05)
+                .pin_top_corners()
+                .spawn(c)
+        });
+        for (k, &e) in cloth.particles.iter().enumerate() {
+            let mut particle = app.world_mut().get_mut::<Particle>(e).unwrap();
+            if k % 7 == 3 {
+                particle.inverse_mass = 1e-3;
+            }
+            particle.set_velocity(Vec3::X * speed, DT);
+        }
+        step(&mut app, 1);
+        let (start, scale) = (energy(&app), energy_scale(&app, 0.5));
+        let (highest, _) = run_and_watch(&mut app, 640);
+        let symmetric = app.world().resource::<VerletState>().solver.islands.list[0].symmetric;
+        println!(
+            "hammock at {speed} m/s, ratio {symmetric_mass_ratio}: energy {start:.3e} J → at most {highest:.3e} J (scale {scale:.3e} J), symmetric {symmetric}"
+        );
+        if symmetric_mass_ratio.is_finite() {
+            assert!(symmetric);
+            assert!(highest <= start + 1e-6 * scale, "energy grew to {highest}");
+        } else {
+            assert!(!symmetric);
+            assert!(highest > start + 1e6 * scale, "forward alone: {highest}");
         }
     }
 }
@@ -1220,6 +1267,7 @@ fn bad_input_warns_once_and_never_spreads_nan() {
         app.insert_resource(VerletConfig {
             damping: -1.0,
             tether_anchors: 1_000_000,
+            symmetric_mass_ratio: nan,
             ..default()
         });
         for _ in 0..8 {
@@ -1267,6 +1315,7 @@ fn bad_input_warns_once_and_never_spreads_nan() {
         "Gravity [0, NaN, 0]",
         "damping -1",
         "tether_anchors 1000000 is outside 1..=8; using 8",
+        "symmetric_mass_ratio is NaN; using 8",
         "sphere with a non-finite centre",
         "min > max",
         "zero or non-finite normal",

@@ -126,7 +126,7 @@
 
 use super::Sticks;
 use super::shared::SharedSlice;
-use super::sticks::{coincident_direction, relax_stick_range};
+use super::sticks::{SweepOrder, coincident_direction, relax_stick_range};
 use super::{StickKind, lines::Line};
 use curvature::Root;
 
@@ -1366,6 +1366,7 @@ impl LineSolve<'_, '_> {
                     self.inv_h2,
                     false,
                     false,
+                    SweepOrder::Forward,
                 );
                 self.scratch.warm.set_unchecked(line.offset + k, 0.0);
             }

@@ -113,6 +113,11 @@ pub struct Island {
     pub hierarchy: Option<u32>,
     /// `true` while the island sleeps (it is neither integrated nor solved).
     pub asleep: bool,
+    /// `true` when its sweeps run forward and back (set by
+    /// [`Solver::begin_step`](super::Solver::begin_step): solved by sweeps, its masses differ by
+    /// more than [`StepConfig::symmetric_mass_ratio`](super::StepConfig::symmetric_mass_ratio);
+    /// see [`symmetric`](super::symmetric)).
+    pub symmetric: bool,
     /// How long every particle has been below the sleep speed, in seconds.
     pub calm_time: f64,
     /// The substep length (s) its particles' Verlet state `x − x*` refers to (its last
@@ -717,6 +722,7 @@ impl Solver {
             tree: None,
             hierarchy: None,
             asleep,
+            symmetric: false,
             calm_time,
             state_substep: 0.0,
         });

@@ -91,6 +91,7 @@ mod shared;
 mod step;
 mod sticks;
 mod sym3;
+pub mod symmetric;
 mod tear;
 mod tethers;
 pub mod tree;
@@ -111,6 +112,7 @@ pub use particles::Particles;
 pub use pins::Pins;
 pub use step::GlobalSubstep;
 pub use sticks::{StickKind, Sticks, relax_sticks};
+pub use symmetric::SYMMETRIC_MASS_RATIO;
 pub use tear::tear;
 pub use tethers::{DEFAULT_TETHER_ANCHORS, MAX_TETHER_ANCHORS, Tethers, relax_tethers};
 pub use tree::{Tree, TreeSet};
@@ -142,6 +144,12 @@ pub struct StepConfig {
     /// substep (SHAKE, energy-conserving) instead of its current direction (the XPBD
     /// projection, which damps). See [`direct`].
     pub shake: bool,
+    /// Islands solved by sweeps whose heaviest movable particle is more than this many times
+    /// their lightest run their iterations in forward–backward pairs (symmetric Gauss–Seidel:
+    /// a forward sweep alone can grow without bound there, see [`symmetric`]). Default
+    /// [`SYMMETRIC_MASS_RATIO`] (8); `f64::INFINITY` (or NaN): never, `1` or less: every swept
+    /// island.
+    pub symmetric_mass_ratio: f64,
 }
 
 impl Default for StepConfig {
@@ -154,6 +162,7 @@ impl Default for StepConfig {
             damping: 0.0,
             sleep: None,
             shake: true,
+            symmetric_mass_ratio: SYMMETRIC_MASS_RATIO,
         }
     }
 }

@@ -23,7 +23,8 @@ use super::parallel::{
     PARALLEL_MIN_WORK_PER_JOB, Serial, job_count, part,
 };
 use super::shared::SharedSlice;
-use super::sticks::relax_stick_range;
+use super::sticks::{SweepOrder, relax_stick_range};
+use super::symmetric::{in_pairs, mass_ratio, order_of};
 use super::tethers::relax_tether_range;
 use super::tree::TreeSolve;
 use super::{Island, Solver, StepConfig, Substep, tear};
@@ -70,7 +71,17 @@ impl GlobalSubstep {
         if island.asleep {
             return None;
         }
-        self.for_config(island.config(&self.config))
+        let substep = self.for_config(island.config(&self.config))?;
+        Some(self.paired_if(island.symmetric, substep))
+    }
+
+    /// `substep` in forward–backward pairs if `symmetric` (see [`symmetric`](super::symmetric)).
+    fn paired_if(&self, symmetric: bool, substep: Substep) -> Substep {
+        if symmetric {
+            in_pairs(substep, self.plain)
+        } else {
+            substep
+        }
     }
 
     /// The substep an awake island of (clamped) `config` takes now, if any.
@@ -110,8 +121,8 @@ struct Views<'a> {
 enum IslandStep<'a> {
     /// A hierarchy's coarse pass from this level up (one thread).
     Coarse(usize),
-    /// A colour batch (split between the threads when independent).
-    Batch(&'a super::Batch),
+    /// A colour batch (split between the threads when independent), visited in this order.
+    Batch(&'a super::Batch, SweepOrder),
     /// Angles and tethers (one thread).
     Rest,
 }
@@ -207,6 +218,12 @@ impl Solver {
             if island.asleep {
                 continue;
             }
+            // (Turned off, or solved by lines: no pass over the masses.)
+            island.symmetric = config.symmetric_mass_ratio < f64::INFINITY
+                && island.method != Method::Lines
+                && !island.sticks.is_empty()
+                && mass_ratio(&self.particles.inverse_mass[range(&island.particles)])
+                    > config.symmetric_mass_ratio;
             let own = island.settings.map(|_| island.config(config));
             count = count.max(own.map_or(config.substeps, |c| c.substeps));
             let h = own.map_or(global, |c| c.substep());
@@ -533,6 +550,7 @@ impl Solver {
         substep: &Substep,
     ) -> u64 {
         let mut passes = 0;
+        let batches = &islands.batches[range(&island.batches)];
         for round in 0..substep.iterations {
             // SAFETY: everything below belongs to this island, which this task holds (caller).
             unsafe {
@@ -540,8 +558,13 @@ impl Solver {
                     passes += self.solve_lines_of(views, islands, island, substep, round == 0);
                 } else {
                     self.solve_hierarchy_of(views, islands, island, 0);
-                    for batch in &islands.batches[range(&island.batches)] {
-                        self.relax_sticks_of(views, substep, batch);
+                    let order = order_of(island.symmetric, round);
+                    for k in 0..batches.len() {
+                        let batch = match order {
+                            SweepOrder::Forward => &batches[k],
+                            SweepOrder::Backward => &batches[batches.len() - 1 - k],
+                        };
+                        self.relax_sticks_of(views, substep, batch, order);
                     }
                     self.solve_hierarchy_of(views, islands, island, AFTER_SWEEP_FROM_LEVEL);
                 }
@@ -640,9 +663,9 @@ impl Solver {
             }
         }
         for &stick in &set.loose[range(&island.loose)] {
-            let stick = stick as usize;
+            let sticks = stick as usize..stick as usize + 1;
             // SAFETY: a stick of the island, which this task holds (caller).
-            unsafe { self.relax_stick_part(views, substep, stick..stick + 1, false) };
+            unsafe { self.relax_stick_part(views, substep, sticks, false, SweepOrder::Forward) };
         }
         passes
     }
@@ -666,9 +689,16 @@ impl Solver {
         // A hierarchy's coarse passes are the steps before and after the batches, on one thread.
         let coarse = usize::from(island.method == Method::Hierarchy);
         let per_iteration = 2 * coarse + batches.len() + has_rest as usize;
-        let step_of = |k: usize| match k.checked_sub(coarse) {
+        let round_of = |g: usize| (g / per_iteration) as u32;
+        // (Every second round of a symmetric island visits the batches backward.)
+        let step_of = |g: usize| match (g % per_iteration).checked_sub(coarse) {
             None => IslandStep::Coarse(0),
-            Some(b) if b < batches.len() => IslandStep::Batch(&batches[b]),
+            Some(b) if b < batches.len() => match order_of(island.symmetric, round_of(g)) {
+                SweepOrder::Forward => IslandStep::Batch(&batches[b], SweepOrder::Forward),
+                SweepOrder::Backward => {
+                    IslandStep::Batch(&batches[batches.len() - 1 - b], SweepOrder::Backward)
+                }
+            },
             Some(b) if b == batches.len() && coarse == 1 => {
                 IslandStep::Coarse(AFTER_SWEEP_FROM_LEVEL)
             }
@@ -679,16 +709,15 @@ impl Solver {
         for counter in counters {
             counter.store(0, Ordering::Relaxed);
         }
-        let chunks_of = |k: usize| match step_of(k) {
-            IslandStep::Batch(batch) if batch.independent => {
+        let chunks_of = |g: usize| match step_of(g) {
+            IslandStep::Batch(batch, _) if batch.independent => {
                 batch.sticks.len().div_ceil(PARALLEL_CHUNK_STICKS)
             }
             _ => 1,
         };
         let job = |_: usize| {
             for g in 0..steps {
-                let k = g % per_iteration;
-                let chunks = chunks_of(k);
+                let chunks = chunks_of(g);
                 let (claimed, done) = (&counters[2 * g], &counters[2 * g + 1]);
                 loop {
                     let chunk = claimed.fetch_add(1, Ordering::Relaxed) as usize;
@@ -701,13 +730,13 @@ impl Solver {
                     // topology: `check_layout`); any other step is one chunk. The island is
                     // disjoint from every other (small islands run after this call returns).
                     unsafe {
-                        match step_of(k) {
+                        match step_of(g) {
                             IslandStep::Coarse(first) => {
                                 self.solve_hierarchy_of(views, islands, island, first)
                             }
-                            IslandStep::Batch(batch) => {
+                            IslandStep::Batch(batch, order) => {
                                 let sticks = part(range(&batch.sticks), chunk, chunks);
-                                self.relax_stick_part(views, substep, sticks, batch.rigid);
+                                self.relax_stick_part(views, substep, sticks, batch.rigid, order);
                             }
                             IslandStep::Rest => self.relax_rest_of(views, island, substep),
                         }
@@ -732,7 +761,7 @@ impl Solver {
         if let Some(last) = steps.checked_sub(1) {
             let done = counters[2 * last + 1].load(Ordering::Acquire) as usize;
             assert!(
-                done >= chunks_of(last % per_iteration),
+                done >= chunks_of(last),
                 "the Executor returned before running its jobs"
             );
         }
@@ -743,9 +772,16 @@ impl Solver {
     /// # Safety
     /// No other task accesses the particles of the batch's sticks, or their multipliers, while
     /// this runs.
-    unsafe fn relax_sticks_of(&self, views: &Views, substep: &Substep, batch: &super::Batch) {
+    unsafe fn relax_sticks_of(
+        &self,
+        views: &Views,
+        substep: &Substep,
+        batch: &super::Batch,
+        order: SweepOrder,
+    ) {
+        let sticks = range(&batch.sticks);
         // SAFETY: this task holds the batch (caller).
-        unsafe { self.relax_stick_part(views, substep, range(&batch.sticks), batch.rigid) };
+        unsafe { self.relax_stick_part(views, substep, sticks, batch.rigid, order) };
     }
 
     /// One sweep over the sticks in `sticks`.
@@ -759,6 +795,7 @@ impl Solver {
         substep: &Substep,
         sticks: Range<usize>,
         rigid: bool,
+        order: SweepOrder,
     ) {
         // SAFETY: this task holds these sticks (caller).
         unsafe {
@@ -771,6 +808,7 @@ impl Solver {
                 1.0 / (substep.h * substep.h),
                 substep.accumulate,
                 rigid,
+                order,
             );
         }
     }
@@ -938,7 +976,7 @@ fn due<'a>(
             None => shared,
             Some(_) => global.for_config(island.config(&global.config)),
         };
-        substep.map(|s| (island, s))
+        substep.map(|s| (island, global.paired_if(island.symmetric, s)))
     })
 }
 

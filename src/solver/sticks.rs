@@ -263,15 +263,41 @@ pub fn relax_sticks(particles: &mut Particles, sticks: &mut Sticks, h: f64, accu
             1.0 / (h * h),
             accumulate,
             false,
+            SweepOrder::Forward,
         );
     }
     sticks.lambda = lambda;
 }
 
-/// [`relax_sticks`] over the sticks in `range`, with positions and multipliers that other tasks
-/// may be writing at other indices (the sticks' particles are this task's alone). `rigid` says
-/// every stick of the range is a two-sided stick of compliance 0 (see
-/// [`Batch::rigid`](super::Batch::rigid)): then only ends and rest lengths are read, and no
+/// The order in which a sweep visits its sticks: a forward sweep followed by a backward one
+/// is a symmetric Gauss–Seidel sweep (see [`symmetric`](super::symmetric)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SweepOrder {
+    /// First stick to last.
+    Forward,
+    /// Last stick to first (the adjoint of the forward sweep).
+    Backward,
+}
+
+/// `for pattern in items { body }` with `items` visited in `order` (a loop per direction, the
+/// body in each: a closure here was not always inlined into the sweep).
+macro_rules! in_order {
+    ($order:expr, $items:expr, |$pattern:pat_param| $body:block) => {
+        match $order {
+            SweepOrder::Forward => {
+                for $pattern in $items $body
+            }
+            SweepOrder::Backward => {
+                for $pattern in $items.rev() $body
+            }
+        }
+    };
+}
+
+/// [`relax_sticks`] over the sticks in `range`, visited in `order`, with positions and
+/// multipliers that other tasks may be writing at other indices (the sticks' particles are this
+/// task's alone). `rigid` says every stick of the range is a two-sided stick of compliance 0
+/// (see [`Batch::rigid`](super::Batch::rigid)): then only ends and rest lengths are read, and no
 /// multiplier is kept (with `α = 0` it changes nothing).
 #[allow(clippy::too_many_arguments)]
 ///
@@ -287,6 +313,7 @@ pub(crate) unsafe fn relax_stick_range(
     inv_h2: f64,
     accumulate: bool,
     rigid: bool,
+    order: SweepOrder,
 ) {
     let ends = &sticks.ends[range.clone()];
     let kinds = &sticks.kind[range.clone()];
@@ -301,8 +328,10 @@ pub(crate) unsafe fn relax_stick_range(
     );
     assert!(!accumulate || range.end <= lambda.len());
     if rigid {
-        let rests = &sticks.rest_length[range.clone()];
-        for (k, (&pair, &rest)) in ends.iter().zip(rests).enumerate() {
+        in_order!(order, ends.iter().zip(rests).enumerate(), |(
+            k,
+            (&pair, &rest),
+        )| {
             // SAFETY: both ends `< n` (checked above); this task alone accesses them (caller).
             let end = unsafe { End::load(position, inverse_mass, pair) };
             let w = end.wa + end.wb;
@@ -320,16 +349,14 @@ pub(crate) unsafe fn relax_stick_range(
             };
             // SAFETY: as above.
             unsafe { end.apply(position, correction) };
-        }
+        });
         return;
     }
-    for (k, (((&pair, &kind), &rest), &compliance)) in ends
-        .iter()
-        .zip(kinds)
-        .zip(rests)
-        .zip(compliances)
-        .enumerate()
-    {
+    let all = ends.iter().zip(kinds).zip(rests).zip(compliances);
+    in_order!(order, all.enumerate(), |(
+        k,
+        (((&pair, &kind), &rest), &compliance),
+    )| {
         if kind == StickKind::Torn {
             continue;
         }
@@ -379,5 +406,5 @@ pub(crate) unsafe fn relax_stick_range(
         };
         // SAFETY: as above.
         unsafe { end.apply(position, correction) };
-    }
+    });
 }

@@ -85,7 +85,7 @@ use super::direct::{
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
-use super::sticks::{coincident_direction, relax_stick_range};
+use super::sticks::{SweepOrder, coincident_direction, relax_stick_range};
 use super::{Particles, StickKind, Sticks};
 use glam::{DMat3, DVec3};
 use std::ops::Range;
@@ -571,6 +571,7 @@ impl TreeSolve<'_, '_> {
                     self.inv_h2,
                     false,
                     false,
+                    SweepOrder::Forward,
                 );
             }
             node.warm = 0.0;
