@@ -21,8 +21,9 @@
 //! 100 m/s, one went to NaN within 5 s at `r = 13`; at `r ≤ 10` none in 60 s.
 //!
 //! # What the solver does
-//! A forward sweep followed by a backward one — symmetric Gauss–Seidel (Saad, *Iterative
-//! Methods for Sparse Linear Systems*, 2nd ed. 2003, §4.1.1) — is `P = R R*` with
+//! A forward sweep followed by a backward one — symmetric Gauss–Seidel, SSOR with ω = 1
+//! (Barrett et al., *Templates for the Solution of Linear Systems*, SIAM 1994, §2.2.4) — is
+//! `P = R R*` with
 //! `R = Q₁ ⋯ Q_m`: self-adjoint in the mass-weighted inner product, its eigenvalues real and in
 //! `[0, 1]`, so the recurrence above cannot grow. An island solved by sweeps whose heaviest
 //! movable particle is more than [`StepConfig::symmetric_mass_ratio`] times its lightest
