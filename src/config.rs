@@ -59,8 +59,8 @@ pub struct VerletConfig {
     /// twice the sweep's cost at one iteration). A forward sweep alone can grow without bound
     /// where heavy particles hang on light ones (a cloth hung by two corners with some
     /// particles 100× heavier, kicked: see the crate README, "Hard cases"). Default 8;
-    /// `f32::INFINITY`: never; `1` or less: every swept island. NaN is replaced by the
-    /// default, with a warning.
+    /// `f32::INFINITY`: never; below 1 (`0`): every swept island, equal masses too. NaN is
+    /// replaced by the default, with a warning.
     pub symmetric_mass_ratio: f32,
 }
 

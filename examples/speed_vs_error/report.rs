@@ -123,7 +123,10 @@ const METHOD: &str = "
 Everything runs on the solver core (`bevy_verlet_physics::solver`), one fixed step = 1/64 s
 (Bevy's default), each substep = integrate → relax × N → constrain exactly as `Solver::step`.
 Rigid sticks (compliance 0) are what the seeds' stiffness 1.0 maps to, so the rigid scenes under
-1 × N are the seeds' relaxation loop with inverse-mass pins.
+1 × N are the seeds' relaxation loop with inverse-mass pins. Sweeps run forward only
+(`StepConfig::symmetric_mass_ratio = ∞`), the baseline of every run since the first: the crate
+sweeps an island whose masses differ more than 8× forward and back (`solver::symmetric`), which
+the heavy-tip and loaded soft chains here would be.
 
 | # | scene | reference | error plotted |
 |---|---|---|---|

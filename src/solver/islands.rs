@@ -113,10 +113,10 @@ pub struct Island {
     pub hierarchy: Option<u32>,
     /// `true` while the island sleeps (it is neither integrated nor solved).
     pub asleep: bool,
-    /// `true` when its sweeps run forward and back (set by
+    /// `true` when its sweeps run forward and back in the current step (set for awake islands by
     /// [`Solver::begin_step`](super::Solver::begin_step): solved by sweeps, its masses differ by
     /// more than [`StepConfig::symmetric_mass_ratio`](super::StepConfig::symmetric_mass_ratio);
-    /// see [`symmetric`](super::symmetric)).
+    /// see [`symmetric`](super::symmetric)). Not meaningful while the island sleeps.
     pub symmetric: bool,
     /// How long every particle has been below the sleep speed, in seconds.
     pub calm_time: f64,

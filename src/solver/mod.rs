@@ -147,8 +147,8 @@ pub struct StepConfig {
     /// Islands solved by sweeps whose heaviest movable particle is more than this many times
     /// their lightest run their iterations in forward–backward pairs (symmetric Gauss–Seidel:
     /// a forward sweep alone can grow without bound there, see [`symmetric`]). Default
-    /// [`SYMMETRIC_MASS_RATIO`] (8); `f64::INFINITY` (or NaN): never, `1` or less: every swept
-    /// island.
+    /// [`SYMMETRIC_MASS_RATIO`] (8); `f64::INFINITY` (or NaN): never; below 1 (`0`): every swept
+    /// island, equal masses too.
     pub symmetric_mass_ratio: f64,
 }
 

@@ -66,7 +66,9 @@ pub struct GlobalSubstep {
 }
 
 impl GlobalSubstep {
-    /// The substep `island` takes now, or `None` if it takes none (asleep, or not due).
+    /// The substep `island` takes now, or `None` if it takes none (asleep, or not due). For an
+    /// island swept symmetrically ([`Island::symmetric`]) its iterations come in
+    /// forward–backward pairs (see [`symmetric`](super::symmetric)).
     pub fn for_island(&self, island: &Island) -> Option<Substep> {
         if island.asleep {
             return None;
@@ -185,7 +187,14 @@ impl Solver {
         self.islands
             .hierarchies
             .refresh(&self.particles, &self.sticks);
-        let changed = self.last_config != Some(*config) || self.colliders != self.last_colliders;
+        // (A NaN mass ratio means never, as infinity does: kept as infinity, or NaN ≠ NaN would
+        // read as a new configuration, waking every island, in every step.)
+        let mut config_kept = *config;
+        if config_kept.symmetric_mass_ratio.is_nan() {
+            config_kept.symmetric_mass_ratio = f64::INFINITY;
+        }
+        let changed =
+            self.last_config != Some(config_kept) || self.colliders != self.last_colliders;
         if self.colliders != self.last_colliders || !self.collider_grid.is_active() {
             let bounds = self.colliders.iter().map(|c| c.shape.bounds());
             self.collider_grid.build(bounds);
@@ -193,7 +202,7 @@ impl Solver {
         if changed || config.sleep.is_none() {
             self.wake_all();
         }
-        self.last_config = Some(*config);
+        self.last_config = Some(config_kept);
         self.last_colliders.clone_from(&self.colliders);
         for i in 0..self.wake_requests.len() {
             if let Some(k) = self.islands.of_particle(self.wake_requests[i]) {
@@ -962,7 +971,8 @@ fn run_jobs(executor: &dyn Executor, jobs: usize, job: &(dyn Fn(usize) + Sync)) 
     );
 }
 
-/// The islands that take a substep now, with their substep contexts.
+/// The islands that take a substep now, with their substep contexts (a symmetric island's
+/// iterations in pairs, see [`GlobalSubstep::for_island`]).
 fn due<'a>(
     islands: &'a [Island],
     global: &'a GlobalSubstep,
