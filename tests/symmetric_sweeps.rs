@@ -4,7 +4,9 @@
 //! cannot. Each test also runs the forward sweep alone (`symmetric_mass_ratio = ∞`) to show the
 //! difference is real.
 
-use bevy_verlet_physics::solver::{Method, ScopedThreads, Serial, Solver, StepConfig};
+use bevy_verlet_physics::solver::{
+    Method, ScopedThreads, Serial, Sleep, Solver, StepConfig, StickKind,
+};
 use glam::DVec3;
 
 mod grid;
@@ -160,4 +162,34 @@ fn symmetric_sweeps_give_the_same_bits_on_any_thread_count() {
     assert!(one.iter().all(|x| x.is_finite()));
     assert_eq!(one, run(2));
     assert_eq!(one, run(4));
+}
+
+/// A NaN ratio in the core's `StepConfig` means never (as infinity does) and is not taken for a
+/// new configuration every step: a weighted pendulum at rest still falls asleep (before it was
+/// kept as NaN, which differs from itself, every step woke every island).
+#[test]
+fn a_nan_mass_ratio_means_never_and_lets_islands_sleep() {
+    let mut solver = Solver::default();
+    solver.method = Method::Sweep;
+    let pivot = solver.add_particle(DVec3::ZERO, 0.0);
+    solver.pin(pivot, DVec3::ZERO);
+    let a = solver.add_particle(DVec3::NEG_Y, 1.0);
+    let b = solver.add_particle(DVec3::new(0.0, -2.0, 0.0), 0.01);
+    for ends in [[pivot, a], [a, b]] {
+        solver
+            .sticks
+            .push(ends, 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    }
+    solver.organize();
+    let config = StepConfig {
+        symmetric_mass_ratio: f64::NAN,
+        sleep: Some(Sleep::for_gravity(G)),
+        ..StepConfig::default()
+    };
+    for _ in 0..3 * 64 {
+        solver.step(&config);
+    }
+    let island = &solver.islands.list[0];
+    assert!(!island.symmetric);
+    assert!(island.asleep, "never fell asleep");
 }
