@@ -56,10 +56,15 @@
 //! ([`lone_stick`](super::lone_stick)).
 //!
 //! A projection whose passes run out unconverged (the budget of [`MAX_PASSES`]) and leave a line
-//! alone in its island with a larger error than its prediction had is put back at the
-//! prediction and swept once instead ([`LineSolve::fall_back`]): Gauss–Newton passes far from
-//! the constraints can wander off, a sweep cannot — unless the iterate is finite, within
-//! [`NEARLY_ON`] of its rigid sticks' constraints, nearer them than the sweep and not
+//! with a larger error than its prediction had is put back at the prediction and swept once
+//! instead ([`LineSolve::fall_back`]) — for a line that shares particles with others (lines
+//! meeting at forks) the prediction is where the lines solved before it left its particles, and
+//! this holds in a substep's first round: before it did, trees pinned at three or four
+//! particles kicked by up to 30 m/s reached 10⁸ link lengths, 3 of 1033 in a scratch scan, none
+//! now (`lines_meeting_at_forks_fall_back_where_their_passes_fail` in `tests/direct.rs`).
+//! Gauss–Newton passes far from the constraints can wander off, a sweep cannot — unless the
+//! iterate is finite, within [`NEARLY_ON`] of its rigid sticks' constraints, nearer them than
+//! the sweep and not
 //! [`FARTHER_THAN_A_SWEEP`] from the prediction: then it is kept (the error compared first
 //! counts a multiplier not yet released, and a review found iterates 4·10⁻⁹–7·10⁻³ off their
 //! constraints swept into 46–310 % strain where pins jump each step). An unconverged projection
@@ -631,6 +636,9 @@ impl LineSolve<'_, '_> {
             // and be rescued by full Newton passes (see [`LineSolve::project`]).
             let rescuable = self.keeps_prediction();
             let curvable = rescuable && self.shake;
+            if self.first_round && !self.alone && self.mirror.is_none() {
+                self.keep_entry(line);
+            }
             let (begun, root) = if self.first_round {
                 self.start(line, curvable)
             } else {
@@ -798,7 +806,7 @@ impl LineSolve<'_, '_> {
             }
             // (Worse off than the prediction, or its loads thrown: see the module's docs.)
             if !converged
-                && self.keeps_prediction()
+                && self.keeps_entry()
                 && (self.residual(line) > begun.predicted || self.thrown(line))
             {
                 self.fall_back(line);
@@ -840,10 +848,38 @@ impl LineSolve<'_, '_> {
         worst
     }
 
+    /// Keeps where the lines solved before this one left its particles, as its prediction for the
+    /// fall back (a line sharing particles with others, whose [`LineSolve::begin`] does not keep
+    /// it). Apart from `begin`'s loop: stored there, the cloth by lines took 3.7 % more
+    /// instructions, and the chains, which do not share particles, 0.6 % more; here 2.1 % and
+    /// nothing (callgrind, release, 8 × 1).
+    ///
+    /// # Safety
+    /// As for [`LineSolve::restore_prediction`].
+    #[inline(never)]
+    unsafe fn keep_entry(&self, line: &LineRef) {
+        for (j, &p) in line.particles.iter().enumerate() {
+            // SAFETY: in bounds (`check`, the caller's contract).
+            unsafe {
+                let x = self.position.get_unchecked(p as usize);
+                self.scratch
+                    .predicted
+                    .set_unchecked(line.particle_offset + j, x);
+            }
+        }
+    }
+
     /// Whether [`LineSolve::begin`] kept the substep's prediction of this line's particles (a
     /// line alone in its island, in the substep's first round).
     fn keeps_prediction(&self) -> bool {
         self.first_round && self.alone && self.mirror.is_none()
+    }
+
+    /// Whether [`LineSolve::begin`] kept where this line's particles were when its solve began
+    /// (in the substep's first round, without a mirror): the prediction where the line is alone
+    /// in its island, else where the lines solved before it left them.
+    fn keeps_entry(&self) -> bool {
+        self.first_round && self.mirror.is_none()
     }
 
     /// After passes that did not converge and left the line worse off than its prediction: a
@@ -972,11 +1008,11 @@ impl LineSolve<'_, '_> {
         (iterate, start)
     }
 
-    /// Puts the line's movable particles back at the substep's prediction, λ = 0.
+    /// Puts the line's movable particles back at the kept prediction, λ = 0.
     ///
     /// # Safety
     /// As for [`LineSolve::solve`]; `line` passed [`LineSolve::check`] and
-    /// [`LineSolve::keeps_prediction`] holds.
+    /// [`LineSolve::keeps_entry`] holds.
     unsafe fn restore_prediction(&self, line: &LineRef) {
         // SAFETY: this task alone holds the line, whose indices are in bounds (caller).
         unsafe {
