@@ -612,7 +612,7 @@ fn lines_meeting_at_forks_fall_back_where_their_passes_fail() {
         let (strain, rise, finite) =
             run_random_heavy_scene(seed, (4.0, 30.0), mix, &config).unwrap();
         println!(
-            "scene {seed}, pinned at four particles: largest strain {:.3e} %, energy at most {:+.2} % of its scale above its start",
+            "scene {seed}, pinned at up to four particles: largest strain {:.3e} %, energy at most {:+.2} % of its scale above its start",
             strain * 100.0,
             rise * 100.0
         );

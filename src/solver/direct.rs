@@ -339,6 +339,12 @@ pub(crate) const FARTHER_THAN_A_SWEEP: f64 = 1e4;
 /// the largest energy gain went from 1940 to 584 times a scene's scale, the scenes gaining
 /// more than their scale from 12 to 9 (more than ten times it: 5 to 2); at 4 the bound swept
 /// projections that were merely far and a scene gained 6.9·10⁴ times its scale, at 8 as 16.
+/// For a line sharing particles with others the prediction is where the lines before it left
+/// them ([`LineSolve::keep_entry`]), and its start need not satisfy its constraints, so the
+/// bound is no longer a theorem there, only a measure: applied to such lines only from a start
+/// within [`NEARLY_ON`] of their constraints, random trees pinned at three or four particles
+/// (scratch scan, 1033 scenes) blew up in 3, 3 and 5 scenes at 1, 2 and 4 substeps instead of
+/// 2, 5 and 0, with as many stretched beyond 100 % at 8 (355).
 pub(crate) const THROWN_ABOVE: f64 = 16.0;
 
 /// Where a projection starts from (see [`LineSolve::project`]).
@@ -461,8 +467,9 @@ pub(crate) struct LineScratch {
     /// [`closure`]).
     pub loads: Vec<super::kkt::Load>,
     /// Per line *particle* (indexed like [`LineSet::particles`](super::LineSet::particles)):
-    /// where the substep's prediction put it, for full Newton passes (lines alone in their
-    /// island only).
+    /// where the substep's prediction put it — for a line sharing particles with others, where
+    /// the lines solved before it left them ([`LineSolve::keep_entry`]) — for the fall back, and
+    /// (lines alone in their island) for full Newton passes. Written in a substep's first round.
     pub predicted: Vec<DVec3>,
     /// Per line particle: an iterate's positions, kept while a sweep from the prediction
     /// ([`LineSolve::fall_back`]) or a second try from the start of the substep
@@ -820,7 +827,7 @@ impl LineSolve<'_, '_> {
     /// out (`|C + α̃λ|/L`, one-sided where a stick is, measured only then).
     ///
     /// # Safety
-    /// As for [`LineSolve::restore_prediction`].
+    /// As for [`LineSolve::restore_prediction`], and [`LineSolve::keeps_prediction`] holds.
     unsafe fn within_reach(&self, line: &LineRef, begun: &Begun) -> bool {
         // SAFETY: as above (this function's contract).
         begun.predicted < CURVATURE_BELOW || unsafe { self.balanced_error(line) } < CURVATURE_BELOW
@@ -830,7 +837,7 @@ impl LineSolve<'_, '_> {
     /// one-sided where a stick is ([`violation`]).
     ///
     /// # Safety
-    /// As for [`LineSolve::restore_prediction`].
+    /// As for [`LineSolve::restore_prediction`], and [`LineSolve::keeps_prediction`] holds.
     unsafe fn balanced_error(&self, line: &LineRef) -> f64 {
         let v = self.scratch;
         let mut worst: f64 = 0.0;
@@ -855,7 +862,7 @@ impl LineSolve<'_, '_> {
     /// nothing (callgrind, release, 8 × 1).
     ///
     /// # Safety
-    /// As for [`LineSolve::restore_prediction`].
+    /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`].
     #[inline(never)]
     unsafe fn keep_entry(&self, line: &LineRef) {
         for (j, &p) in line.particles.iter().enumerate() {
@@ -875,9 +882,10 @@ impl LineSolve<'_, '_> {
         self.first_round && self.alone && self.mirror.is_none()
     }
 
-    /// Whether [`LineSolve::begin`] kept where this line's particles were when its solve began
-    /// (in the substep's first round, without a mirror): the prediction where the line is alone
-    /// in its island, else where the lines solved before it left them.
+    /// Whether this line's particles were kept where its solve began (in the substep's first
+    /// round, without a mirror): the prediction, kept by [`LineSolve::begin`], where the line is
+    /// alone in its island, else where the lines solved before it left them, kept by
+    /// [`LineSolve::keep_entry`].
     fn keeps_entry(&self) -> bool {
         self.first_round && self.mirror.is_none()
     }
@@ -886,7 +894,9 @@ impl LineSolve<'_, '_> {
     /// sweep from the prediction instead — unless the iterate is finite, within [`NEARLY_ON`]
     /// of its rigid sticks' constraints, nearer them than the sweep ([`LineSolve::violation`])
     /// and not [`FARTHER_THAN_A_SWEEP`] from the prediction: it is then put back, its
-    /// multipliers of one-sided sticks out of the system released. See the module's docs.
+    /// multipliers of one-sided sticks out of the system released. See the module's docs. (The
+    /// prediction is the kept one: for a line sharing particles with others, where the lines
+    /// solved before it left them, see [`LineSolve::keeps_entry`].)
     ///
     /// # Safety
     /// As for [`LineSolve::restore_prediction`].
