@@ -343,7 +343,7 @@ pub(crate) const FARTHER_THAN_A_SWEEP: f64 = 1e4;
 /// them ([`LineSolve::keep_entry`]), and its start need not satisfy its constraints, so the
 /// bound is no longer a theorem there, only a measure: applied to such lines only from a start
 /// within [`NEARLY_ON`] of their constraints, random trees pinned at three or four particles
-/// (scratch scan, 1033 scenes) blew up in 3, 3 and 5 scenes at 1, 2 and 4 substeps instead of
+/// (scratch scan, 1033 scenes) blew up in 3, 5 and 3 scenes at 1, 2 and 4 substeps instead of
 /// 2, 5 and 0, with as many stretched beyond 100 % at 8 (355).
 pub(crate) const THROWN_ABOVE: f64 = 16.0;
 
