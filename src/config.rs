@@ -267,4 +267,8 @@ pub struct VerletStats {
     pub islands: usize,
     /// Islands asleep after the last step (see [`Sleeping`]).
     pub sleeping_islands: usize,
+    /// Awake islands the last step swept forward and back: solved by sweeps, their masses differ
+    /// more than [`VerletConfig::symmetric_mass_ratio`] (each costs twice a forward sweep at one
+    /// iteration).
+    pub symmetric_islands: usize,
 }

@@ -600,6 +600,7 @@ pub(crate) fn writeback(
     stats.sticks = state.solver.sticks.len() - state.torn_pending;
     stats.islands = state.solver.islands.list.len();
     stats.sleeping_islands = state.solver.sleeping_islands();
+    stats.symmetric_islands = state.solver.symmetric_islands();
     stats.steps += 1;
     stats.gather_micros = clock.gather;
     stats.solve_micros = clock.solve;

@@ -266,6 +266,12 @@ fn a_weighted_hammock_swung_hard_never_blows_up() {
         let (start, scale) = (energy(&app), energy_scale(&app, 0.5));
         let (highest, _) = run_and_watch(&mut app, 640);
         let symmetric = app.world().resource::<VerletState>().solver.islands.list[0].symmetric;
+        let counted = app.world().resource::<VerletStats>().symmetric_islands;
+        assert_eq!(
+            counted,
+            usize::from(symmetric),
+            "VerletStats::symmetric_islands"
+        );
         println!(
             "hammock at {speed} m/s, ratio {symmetric_mass_ratio}: energy {start:.3e} J → at most {highest:.3e} J (scale {scale:.3e} J), symmetric {symmetric}"
         );

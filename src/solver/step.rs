@@ -297,6 +297,32 @@ impl Solver {
         self.islands.list.iter().filter(|i| i.asleep).count()
     }
 
+    /// How many awake islands the last step swept forward and back ([`Island::symmetric`]:
+    /// their masses differ more than [`StepConfig::symmetric_mass_ratio`]).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};
+    /// use glam::DVec3;
+    /// // A triangle (a loop: swept) holding a 100× heavier particle.
+    /// let mut solver = Solver::default();
+    /// for (x, w) in [(0.0, 1.0), (1.0, 1.0), (0.5, 0.01)] {
+    ///     solver.add_particle(DVec3::new(x, 0.0, 0.0), w);
+    /// }
+    /// for ends in [[0, 1], [1, 2], [2, 0]] {
+    ///     solver.sticks.push(ends, 0.5, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// }
+    /// solver.organize();
+    /// solver.step(&StepConfig::default());
+    /// assert_eq!(solver.symmetric_islands(), 1);
+    /// ```
+    pub fn symmetric_islands(&self) -> usize {
+        self.islands
+            .list
+            .iter()
+            .filter(|i| i.symmetric && !i.asleep)
+            .count()
+    }
+
     /// First phase of a substep: Verlet integration, kinematic pins placed on their interpolated
     /// targets, XPBD multipliers reset.
     pub fn integrate_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
