@@ -111,11 +111,12 @@ fn update_overlay(
         return;
     };
     text.0 = format!(
-        "particles {}  sticks {}  islands {} ({} asleep)  torn {}  solver {:.0} us/step  {} substeps x {} iterations  gravity {}{}",
+        "particles {}  sticks {}  islands {} ({} asleep, {} symmetric)  torn {}  solver {:.0} us/step  {} substeps x {} iterations  gravity {}{}",
         stats.particles,
         stats.sticks,
         stats.islands,
         stats.sleeping_islands,
+        stats.symmetric_islands,
         torn.0,
         stats.step_micros,
         config.substeps,
