@@ -504,23 +504,34 @@ fn random_heavy_chains_and_trees_at_one_substep_never_blow_up() {
     scan_random_heavy_scenes(name, scenes, hits, Mix::LINKS, (Some(1), Some(5.0)));
 }
 
-/// Scene `seed` of [`random_heavy_scene`] kicked by up to 30 m/s, run for 2 s at one substep
-/// per step ([`run_random_heavy_scene`]): its largest strain and its largest energy rise,
-/// printed. Asserts it built and finite.
-fn kicked_at_one_substep(seed: u64) -> (f64, f64) {
-    let config = StepConfig {
-        substeps: 1,
-        ..config(0.0, true)
-    };
-    let (strain, rise, finite) =
-        run_random_heavy_scene(seed, (4.0, 30.0), Mix::LINKS, &config).unwrap();
+/// Scene `seed` of [`random_heavy_scene`] run for 2 s under `config`
+/// ([`run_random_heavy_scene`]): its largest strain and its largest energy rise, printed with
+/// `how` the scene was run. Asserts it built and stayed finite.
+fn printed_scene(
+    seed: u64,
+    hits: (f64, f64),
+    mix: Mix,
+    config: &StepConfig,
+    how: &str,
+) -> (f64, f64) {
+    let (strain, rise, finite) = run_random_heavy_scene(seed, hits, mix, config).unwrap();
     println!(
-        "scene {seed}, kicked at one substep: largest strain {:.3e} %, energy at most {:+.2} % of its scale above its start",
+        "scene {seed}, {how}: largest strain {:.3e} %, energy at most {:+.2} % of its scale above its start",
         strain * 100.0,
         rise * 100.0
     );
     assert!(finite, "scene {seed}");
     (strain, rise)
+}
+
+/// [`printed_scene`] kicked by up to 30 m/s at one substep per step.
+fn kicked_at_one_substep(seed: u64) -> (f64, f64) {
+    let config = StepConfig {
+        substeps: 1,
+        ..config(0.0, true)
+    };
+    let how = "kicked at one substep";
+    printed_scene(seed, (4.0, 30.0), Mix::LINKS, &config, how)
 }
 
 /// Scenes of [`random_heavy_scene`] at one substep per step kicked by up to 30 m/s (nine link
@@ -575,14 +586,8 @@ fn unconverged_lines_with_still_pins_try_again_from_the_start() {
         ..config(0.0, true)
     };
     for seed in [384, 651, 955] {
-        let (strain, rise, finite) =
-            run_random_heavy_scene(seed, (4.0, 60.0), Mix::LINKS, &config).unwrap();
-        println!(
-            "scene {seed}, kicked at four substeps: largest strain {:.3e} %, energy at most {:+.2} % of its scale above its start",
-            strain * 100.0,
-            rise * 100.0
-        );
-        assert!(finite, "scene {seed}");
+        let how = "kicked at four substeps";
+        let (strain, rise) = printed_scene(seed, (4.0, 60.0), Mix::LINKS, &config, how);
         assert!(strain < 0.01, "scene {seed}: largest strain {strain}");
         assert!(rise < 0.1, "scene {seed}: energy {rise} of its scale above");
     }
@@ -609,14 +614,8 @@ fn lines_meeting_at_forks_fall_back_where_their_passes_fail() {
         ..Mix::LINKS
     };
     for seed in [364, 481, 1046] {
-        let (strain, rise, finite) =
-            run_random_heavy_scene(seed, (4.0, 30.0), mix, &config).unwrap();
-        println!(
-            "scene {seed}, pinned at up to four particles: largest strain {:.3e} %, energy at most {:+.2} % of its scale above its start",
-            strain * 100.0,
-            rise * 100.0
-        );
-        assert!(finite, "scene {seed}");
+        let how = "pinned at up to four particles";
+        let (strain, rise) = printed_scene(seed, (4.0, 30.0), mix, &config, how);
         assert!(strain < 50.0, "scene {seed}: largest strain {strain}");
         assert!(rise < 0.1, "scene {seed}: energy {rise} of its scale above");
     }
