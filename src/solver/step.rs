@@ -24,7 +24,7 @@ use super::parallel::{
 };
 use super::shared::SharedSlice;
 use super::sticks::{SweepOrder, relax_stick_range};
-use super::symmetric::{in_pairs, mass_ratio, order_of};
+use super::symmetric::{in_pairs, mass_ratio, nth_in, order_of};
 use super::tethers::relax_tether_range;
 use super::tree::TreeSolve;
 use super::{Island, Solver, StepConfig, Substep, tear};
@@ -595,10 +595,7 @@ impl Solver {
                     self.solve_hierarchy_of(views, islands, island, 0);
                     let order = order_of(island.symmetric, round);
                     for k in 0..batches.len() {
-                        let batch = match order {
-                            SweepOrder::Forward => &batches[k],
-                            SweepOrder::Backward => &batches[batches.len() - 1 - k],
-                        };
+                        let batch = nth_in(order, batches, k);
                         self.relax_sticks_of(views, substep, batch, order);
                     }
                     self.solve_hierarchy_of(views, islands, island, AFTER_SWEEP_FROM_LEVEL);
@@ -728,12 +725,10 @@ impl Solver {
         // (Every second round of a symmetric island visits the batches backward.)
         let step_of = |g: usize| match (g % per_iteration).checked_sub(coarse) {
             None => IslandStep::Coarse(0),
-            Some(b) if b < batches.len() => match order_of(island.symmetric, round_of(g)) {
-                SweepOrder::Forward => IslandStep::Batch(&batches[b], SweepOrder::Forward),
-                SweepOrder::Backward => {
-                    IslandStep::Batch(&batches[batches.len() - 1 - b], SweepOrder::Backward)
-                }
-            },
+            Some(b) if b < batches.len() => {
+                let order = order_of(island.symmetric, round_of(g));
+                IslandStep::Batch(nth_in(order, batches, b), order)
+            }
             Some(b) if b == batches.len() && coarse == 1 => {
                 IslandStep::Coarse(AFTER_SWEEP_FROM_LEVEL)
             }

@@ -138,6 +138,15 @@ pub(crate) fn order_of(symmetric: bool, round: u32) -> SweepOrder {
     }
 }
 
+/// The `k`-th of `items` visited in `order` (a backward round visits an island's colour batches
+/// last to first).
+pub(crate) fn nth_in<T>(order: SweepOrder, items: &[T], k: usize) -> &T {
+    match order {
+        SweepOrder::Forward => &items[k],
+        SweepOrder::Backward => &items[items.len() - 1 - k],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,5 +178,12 @@ mod tests {
         use SweepOrder::{Backward, Forward};
         assert_eq!(orders, [Forward, Backward, Forward, Backward]);
         assert!((0..4).all(|round| order_of(false, round) == Forward));
+        assert_eq!(
+            (
+                nth_in(Forward, &[1, 2, 3], 0),
+                nth_in(Backward, &[1, 2, 3], 0)
+            ),
+            (&1, &3)
+        );
     }
 }
