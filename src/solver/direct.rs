@@ -97,7 +97,8 @@
 //! likewise in compression; out of it a multiplier is released (its row reads `Δλ = −λ`);
 //! torn sticks and sticks between two immovable particles are never in it (a line splits
 //! there). A straight chain pulled taut between two pins makes `K` singular: a line
-//! with a rigid segment within 0.1 % of taut between two immovable particles is swept for that
+//! with a rigid segment within 0.1 % of taut between two immovable particles (with a movable
+//! particle between them: a stick from pin to pin is out of the system) is swept for that
 //! substep instead, and the diagonal carries a relative regularisation of
 //! `10⁻⁹`. In an island that is a single line, rigid sticks found violated by more than 0.1 % at
 //! the start of a substep (an edited rest length, a spawn) are first corrected on the start
@@ -1236,18 +1237,24 @@ impl LineSolve<'_, '_> {
             // particles, the start of a line's substep does not satisfy its constraints.)
             let checks_reach = self.alone && v.mode.get_unchecked(line.offset) != LineMode::Shake;
             let mut far = false;
-            // The last immovable particle and the rest length of the rigid sticks since (∞ once a
-            // stick that can stretch is passed).
+            // The last immovable particle, the rest length of the rigid sticks since (∞ once a
+            // stick that can stretch is passed) and whether a movable particle was passed since
+            // (a stick between two immovable particles is out of the system, never singular:
+            // counted taut, it had a rope pinned at two neighbouring particles swept in every
+            // substep).
             let (mut anchor, mut anchor_rest): (Option<DVec3>, f64) = (None, 0.0);
+            let mut movable_since = false;
             let mut x = self.position.get_unchecked(line.p(0));
             for j in 0..=m {
                 let p = line.p(j);
                 let w = self.w(p);
                 if w <= 0.0 {
-                    if let Some(at) = anchor {
+                    if let (Some(at), true) = (anchor, movable_since) {
                         taut |= (x - at).length() >= anchor_rest * (1.0 - TAUT);
                     }
-                    (anchor, anchor_rest) = (Some(x), 0.0);
+                    (anchor, anchor_rest, movable_since) = (Some(x), 0.0, false);
+                } else {
+                    movable_since = true;
                 }
                 let mut after = DVec3::ZERO;
                 let mut x_next = DVec3::ZERO;
