@@ -180,7 +180,7 @@ fn parallel_solving_is_bitwise_identical_to_serial() {
         .islands
         .list
         .iter()
-        .filter(|i| i.tree.is_some())
+        .filter(|i| !i.trees.is_empty())
         .count();
     assert_eq!(trees, 100);
     let mut threaded = serial.clone();

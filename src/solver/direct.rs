@@ -61,7 +61,9 @@
 //! meeting at forks) the prediction is where the lines solved before it left its particles, and
 //! this holds in a substep's first round: before it did, trees pinned at three or four
 //! particles kicked by up to 30 m/s reached 10⁸ link lengths, 3 of 1033 in a scratch scan, none
-//! now (`lines_meeting_at_forks_fall_back_where_their_passes_fail` in `tests/direct.rs`).
+//! with it (such trees are now split at their pins and closed more than once, see
+//! [`tree`](super::tree); lines still meet at forks in meshes forced onto lines and in trees
+//! with a part held by more than five pins).
 //! Gauss–Newton passes far from the constraints can wander off, a sweep cannot — unless the
 //! iterate is finite, within [`NEARLY_ON`] of its rigid sticks' constraints, nearer them than
 //! the sweep and not
@@ -104,11 +106,12 @@
 //! the start of a substep (an edited rest length, a spawn) are first corrected on the start
 //! positions too, so the correction does not become velocity (a free L-shaped rope whose links
 //! are shortened by 10 %: 0 instead of 2.4 m/s, `tests/direct.rs`). Not where lines meet at
-//! forks (trees with three or more pins, meshes forced onto lines): there the block
-//! Gauss–Seidel over lines leaves such violations every substep, and lines correcting one
+//! forks (meshes forced onto lines, trees with a part held by more than five pins): there the
+//! block Gauss–Seidel over lines leaves such violations every substep, and lines correcting one
 //! shared particle's start position in turn fed each other's errors (a Y-shaped rope stretched
 //! 809 % instead of 22 %).
-//! Trees with at most two pins are solved whole instead (see [`tree`](super::tree)).
+//! Trees are solved whole instead (see [`tree`](super::tree); three or more pins split them
+//! into parts, each closed once per pin besides its root, up to five pins a part).
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
@@ -462,6 +465,8 @@ pub(crate) struct LineScratch {
     pub trees: Vec<super::tree::Node>,
     /// Per tree node, for a curvature pass (see [`tree`](super::tree)).
     pub tree_curvature: Vec<super::tree::TreeCurvature>,
+    /// Per tree node and extra closing stick (see [`Tree::extra_closings`](super::Tree)).
+    pub tree_closings: Vec<super::tree::Closing>,
     /// The elimination of a curvature pass (see [`curvature`]).
     pub curvature: Vec<super::kkt::Reduced>,
     /// A unit load's part of each stick's elimination, for lines pinned at both ends (see
@@ -481,9 +486,13 @@ pub(crate) struct LineScratch {
 }
 
 impl LineScratch {
-    pub(crate) fn resize(&mut self, n: usize, particles: usize, tree_nodes: usize) {
+    pub(crate) fn resize(&mut self, n: usize, particles: usize, trees: &super::TreeSet) {
+        let tree_nodes = trees.particle.len();
         self.trees.clear();
         self.trees.resize(tree_nodes, super::tree::Node::default());
+        self.tree_closings.clear();
+        self.tree_closings
+            .resize(trees.closing_records(), super::tree::Closing::default());
         self.tree_curvature.clear();
         self.tree_curvature
             .resize(tree_nodes, super::tree::TreeCurvature::default());
@@ -515,6 +524,7 @@ pub(crate) struct LineViews<'a> {
     pub mode: SharedSlice<'a, LineMode>,
     pub trees: SharedSlice<'a, super::tree::Node>,
     pub tree_curvature: SharedSlice<'a, super::tree::TreeCurvature>,
+    pub tree_closings: SharedSlice<'a, super::tree::Closing>,
     pub curvature: SharedSlice<'a, super::kkt::Reduced>,
     pub loads: SharedSlice<'a, super::kkt::Load>,
     pub predicted: SharedSlice<'a, DVec3>,
@@ -533,6 +543,7 @@ impl<'a> LineViews<'a> {
             mode: SharedSlice::new(&mut scratch.mode),
             trees: SharedSlice::new(&mut scratch.trees),
             tree_curvature: SharedSlice::new(&mut scratch.tree_curvature),
+            tree_closings: SharedSlice::new(&mut scratch.tree_closings),
             curvature: SharedSlice::new(&mut scratch.curvature),
             loads: SharedSlice::new(&mut scratch.loads),
             predicted: SharedSlice::new(&mut scratch.predicted),

@@ -103,10 +103,11 @@ pub struct Island {
     pub line_groups: Range<u32>,
     /// Its sticks that no line holds (range into [`LineSet::loose`]), swept after the lines.
     pub loose: Range<u32>,
-    /// Its tree (index into [`TreeSet::trees`](super::TreeSet::trees)) when it is solved by
-    /// lines and is a tree with a fork and at most two immovable particles: then it has no lines
-    /// and is solved whole (see [`tree`](super::tree)).
-    pub tree: Option<u32>,
+    /// Its trees (a range into [`TreeSet::trees`](super::TreeSet::trees)) when it is solved by
+    /// lines and is a tree with a fork: one, or one per part where three or more immovable
+    /// particles split it ([`tree`](super::tree)'s `split`); then it has no lines and is solved
+    /// whole. Empty otherwise (and where a part hangs on three or more immovable particles).
+    pub trees: Range<u32>,
     /// Its hierarchy (index into [`HierarchySet::list`](super::HierarchySet::list)) when it is
     /// solved by [`Method::Hierarchy`] and has a mesh to coarsen (see
     /// [`hierarchy`](super::hierarchy)).
@@ -719,7 +720,7 @@ impl Solver {
             method: Method::Sweep,
             line_groups: 0..0,
             loose: 0..0,
-            tree: None,
+            trees: 0..0,
             hierarchy: None,
             asleep,
             symmetric: false,
@@ -755,7 +756,7 @@ impl Solver {
             island.method = Method::Auto; // (no override yet)
             island.line_groups = 0..0;
             island.loose = 0..0;
-            island.tree = None;
+            island.trees = 0..0;
             island.hierarchy = None;
         }
         for &(particle, method) in &self.island_methods {
@@ -809,14 +810,14 @@ impl Solver {
                 continue;
             }
             if is_chain_or_tree(sticks, particles.len()) {
-                island.tree = super::tree::build(
+                island.trees = super::tree::build(
                     &mut islands.lines.trees,
                     (&mut builder.queue, &mut builder.seen),
                     (&self.particles, &self.sticks),
                     particles.clone(),
                     &builder.incidence,
                 );
-                if island.tree.is_some() {
+                if !island.trees.is_empty() {
                     continue;
                 }
             }
@@ -835,7 +836,7 @@ impl Solver {
         self.line_scratch.resize(
             islands.lines.sticks.len(),
             islands.lines.particles.len(),
-            islands.lines.trees.particle.len(),
+            &islands.lines.trees,
         );
         islands.hierarchies.refresh(&self.particles, &self.sticks);
     }

@@ -131,7 +131,26 @@ pub(crate) struct Load {
     beta: f64,
 }
 
+impl Load {
+    /// The load's parts `(v, β)`.
+    pub(crate) fn parts(&self) -> (DVec3, f64) {
+        (self.v, self.beta)
+    }
+
+    /// A load from its parts `(v, β)`.
+    pub(crate) fn from_parts(v: DVec3, beta: f64) -> Self {
+        Self { v, beta }
+    }
+}
+
 impl Reduced {
+    /// As [`Reduced::substitute`], with `(v, β)` added to the stick's own part (the sum of
+    /// several loads' parts, each times its amount).
+    #[inline(always)]
+    pub(crate) fn substitute_added(&self, v: DVec3, beta: f64, parent_dx: DVec3) -> (f64, DVec3) {
+        self.substitute_with(self.v + v, self.beta + beta, parent_dx)
+    }
+
     /// `(Δλ, Δx_c)` once the parent's `Δx_p` is known (non-finite parts as zero: a singular
     /// reduction must not spread NaN).
     #[inline(always)]

@@ -45,9 +45,9 @@ use std::ops::Range;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Method {
     /// Chosen per island by [`Solver::organize`](super::Solver::organize): chains and trees (no
-    /// loop, no angle constraint) → [`Method::Lines`] (a tree with a fork and at most two pins
-    /// is solved whole, see [`tree`](super::tree)); everything else (rings, meshes, ragdolls
-    /// with posture links, braced structures) → [`Method::Sweep`].
+    /// loop, no angle constraint) → [`Method::Lines`] (a tree with a fork is solved whole, split
+    /// at its pins where it has three or more, see [`tree`](super::tree)); everything else
+    /// (rings, meshes, ragdolls with posture links, braced structures) → [`Method::Sweep`].
     #[default]
     Auto,
     /// Gauss–Seidel sweeps over single sticks (in colour order on large meshes).

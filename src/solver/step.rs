@@ -629,6 +629,45 @@ impl Solver {
         unsafe { hierarchy.solve(&views.position, first) };
     }
 
+    /// One round of an island's trees, one after the other (they share no movable particle:
+    /// see [`tree`](super::tree)). Returns the Newton passes taken.
+    ///
+    /// # Safety
+    /// As for [`Solver::solve_lines_of`].
+    unsafe fn solve_trees_of(
+        &self,
+        views: &Views,
+        set: &super::TreeSet,
+        island: &Island,
+        substep: &Substep,
+        first_round: bool,
+    ) -> u64 {
+        let solve = TreeSolve {
+            position: &views.position,
+            previous: &views.previous,
+            mirror: None,
+            lambda: &views.stick_lambda,
+            inverse_mass: &self.particles.inverse_mass,
+            sticks: &self.sticks,
+            inv_h2: 1.0 / (substep.h * substep.h),
+            shake: substep.shake,
+            first_round,
+        };
+        let mut passes = 0;
+        for tree in &set.trees[range(&island.trees)] {
+            let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
+            // SAFETY: the tree's nodes, particles and sticks are the island's (the layout
+            // matches the topology), which this task holds (caller).
+            passes += unsafe {
+                let curvature = views.lines.tree_curvature.slice_mut(nodes.clone());
+                let more = views.lines.tree_closings.slice_mut(tree.closing_records());
+                let nodes = views.lines.trees.slice_mut(nodes);
+                solve.solve(set, tree, (nodes, more), curvature)
+            } as u64;
+        }
+        passes
+    }
+
     /// One round of an island's lines (group after group: block Gauss–Seidel over lines), then
     /// its loose sticks. Returns the Newton passes taken.
     ///
@@ -644,30 +683,9 @@ impl Solver {
         first_round: bool,
     ) -> u64 {
         let set = &islands.lines;
-        if let Some(tree) = island.tree.and_then(|k| set.trees.trees.get(k as usize)) {
-            let solve = TreeSolve {
-                position: &views.position,
-                previous: &views.previous,
-                mirror: None,
-                lambda: &views.stick_lambda,
-                inverse_mass: &self.particles.inverse_mass,
-                sticks: &self.sticks,
-                inv_h2: 1.0 / (substep.h * substep.h),
-                shake: substep.shake,
-                first_round,
-            };
-            let nodes = tree.nodes.start as usize..tree.nodes.end as usize;
-            // SAFETY: the tree's nodes, particles and sticks are the island's (the layout
-            // matches the topology), which this task holds (caller).
-            return unsafe {
-                let curvature = views.lines.tree_curvature.slice_mut(nodes.clone());
-                solve.solve(
-                    &set.trees,
-                    tree,
-                    views.lines.trees.slice_mut(nodes),
-                    curvature,
-                )
-            } as u64;
+        if !island.trees.is_empty() {
+            // SAFETY: as for this function (caller).
+            return unsafe { self.solve_trees_of(views, &set.trees, island, substep, first_round) };
         }
         let solve = LineSolve {
             position: views.position,

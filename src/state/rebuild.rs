@@ -463,7 +463,7 @@ impl VerletState {
         let islands = &self.solver.islands;
         let tree = islands
             .of_particle(slot)
-            .is_some_and(|k| islands.list[k].tree.is_some());
+            .is_some_and(|k| !islands.list[k].trees.is_empty());
         if tree {
             return false;
         }
@@ -481,9 +481,21 @@ impl VerletState {
     }
 
     /// Unpins solver pin `index` in place, giving its particle inverse mass `w` back (it keeps
-    /// the pin's last velocity). `false` when that takes a rebuild (tethers).
+    /// the pin's last velocity). `false` when that takes a rebuild (tethers; a tree-solved
+    /// island held by three or more pins, see `solver::tree`: split at its pins, the parts
+    /// would move the particle one by one, and its trees' closing sticks hang on its pins).
     pub(crate) fn remove_pin(&mut self, index: usize, w: f64) -> bool {
         if self.solver.tethered.contains(&true) {
+            return false;
+        }
+        let islands = &self.solver.islands;
+        let closed_often = self.solver.pins.particle.get(index).is_some_and(|&slot| {
+            islands.of_particle(slot).is_some_and(|k| {
+                let island = &islands.list[k];
+                !island.trees.is_empty() && island.pins.len() >= 3
+            })
+        });
+        if closed_often {
             return false;
         }
         let organized = self.solver.is_organized();

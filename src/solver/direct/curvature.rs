@@ -433,7 +433,7 @@ mod tests {
         let mut position = c.x.clone();
         let mut lambda = [0.0; 4];
         let mut scratch = LineScratch::default();
-        scratch.resize(4, 5, 0);
+        scratch.resize(4, 5, &Default::default());
         scratch.warm.copy_from_slice(&c.lambda);
         let slices = (&mut position[..], &mut lambda[..], &mut scratch);
         // SAFETY: this test alone holds the slices; `check` passed; nothing moved the line.
@@ -520,7 +520,7 @@ mod tests {
         let multipliers = [-0.2, -0.1, 0.05, -0.3];
         let (mut position, mut lambda) = (iterate.clone(), multipliers);
         let mut scratch = LineScratch::default();
-        scratch.resize(4, 5, 0);
+        scratch.resize(4, 5, &Default::default());
         let slices = (&mut position[..], &mut lambda[..], &mut scratch);
         // SAFETY: this test alone holds the slices; `check` passed.
         let (restarted, zeroed) = on_line(&c, slices, |solve, line| unsafe {
@@ -554,7 +554,7 @@ mod tests {
                 .collect();
             let mut lambda = [-0.2, -0.1, 0.05, -0.3];
             let mut scratch = LineScratch::default();
-            scratch.resize(4, 5, 0);
+            scratch.resize(4, 5, &Default::default());
             scratch.predicted.copy_from_slice(&c.x);
             let slices = (&mut position[..], &mut lambda[..], &mut scratch);
             // SAFETY: this test alone holds the slices; `check` passed; the prediction is kept.

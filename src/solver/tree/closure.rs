@@ -41,11 +41,12 @@
 //! kicked stretched 540–10 500 % in 76 000–162 000 Newton passes; with the loop closed in the
 //! curvature passes too, those kicked 0.02 m stay below 10⁻⁹ (one of six: 780 %) in 10 000–18 000
 //! passes, those kicked 0.2 m (100 m/s) still 6500–10 500 %. Three or more immovable particles
-//! stay on lines.
+//! split the tree at them ([`split`](super::split)), and a part held by more than two is
+//! closed more than once ([`closings`](super::closings)).
 
 use super::super::StickKind;
 use super::super::direct::TAUT;
-use super::{Node, REGULARISATION, TreeSolve, TreeView};
+use super::{Closing, Node, REGULARISATION, TreeSolve, TreeView};
 use glam::DVec3;
 
 impl TreeSolve<'_, '_> {
@@ -63,6 +64,10 @@ impl TreeSolve<'_, '_> {
         let Some(closing) = view.closing else {
             return false;
         };
+        // SAFETY: as for this function (caller).
+        if !view.extra.is_empty() && unsafe { self.extra_taut(view) } {
+            return true;
+        }
         let root_movable = self.inverse_mass[view.particle[0] as usize] > 0.0;
         if root_movable || view.parent[closing] == view.offset {
             return false;
@@ -98,7 +103,11 @@ impl TreeSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`], after [`TreeSolve::forward`] with `CLOSED`.
-    pub(super) unsafe fn close(&self, view: &TreeView, s: &mut [Node]) {
+    pub(super) unsafe fn close(&self, view: &TreeView, (s, more): (&mut [Node], &mut [Closing])) {
+        if !view.extra.is_empty() {
+            // SAFETY: as for this function (caller).
+            return unsafe { self.close_many(view, s, more) };
+        }
         let Some(closing) = view.closing else {
             return;
         };
@@ -148,7 +157,7 @@ impl TreeSolve<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::super::test_support::{INV_H2, first_view, run_pass};
-    use super::super::{Node, TreeCurvature};
+    use super::super::{Closing, Node, TreeCurvature};
     use crate::solver::direct::LineMode;
     use crate::solver::{Solver, StickKind, kkt};
     use glam::DVec3;
@@ -203,12 +212,14 @@ mod tests {
     fn closed_pass_matches_dense(solver: &Solver, curvature: bool) {
         let set = solver.islands.lines().trees.clone();
         let view = first_view(&set);
-        // (The root is the first pin; the closing node the second, still immovable.)
+        // (The root is the first pin; the closing nodes the others, still immovable.)
         let closing = view.closing.expect("two pins: a closed tree");
-        assert_eq!(
-            solver.particles.inverse_mass[view.particle[closing] as usize],
-            0.0
-        );
+        for t in view.extra.iter().map(|&t| t as usize).chain([closing]) {
+            assert_eq!(
+                solver.particles.inverse_mass[view.particle[t] as usize],
+                0.0
+            );
+        }
         let sticks = solver.sticks.len();
         let warm: Vec<f64> = (0..sticks)
             .map(|k| match (curvature, k) {
@@ -222,16 +233,17 @@ mod tests {
             node.warm = warm[k as usize];
         }
         let mut c = vec![TreeCurvature::default(); s.len()];
+        let mut more = vec![Closing::default(); s.len() * view.extra.len()];
         let (position, lambda) = run_pass(solver, &vec![0.0; sticks], false, |solve| {
             solve.check(&view);
-            // SAFETY: this test alone holds the slices; `check` passed; the closing node and
+            // SAFETY: this test alone holds the slices; `check` passed; the closing nodes and
             // the root are the only immovable particles.
             unsafe {
                 if curvature {
-                    solve.curvature_pass(&view, &s, &mut c);
+                    solve.curvature_pass(&view, &s, (&mut c, &mut more));
                 } else {
-                    solve.forward::<false, true>(&view, &mut s);
-                    solve.close(&view, &mut s);
+                    solve.forward::<false, true>(&view, (&mut s, &mut more));
+                    solve.close(&view, (&mut s, &mut more));
                     solve.backward(&view, &mut s);
                 }
             }
@@ -265,6 +277,92 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A tree held by four immovable particles (a rope between two posts, a branch from its
+    /// middle to a third post and one from that branch to a fourth, a heavy free end below):
+    /// split at its pins it stays one part, closed three times. Variants — a slack rope link
+    /// released, one closing stick compliant, the root unpinned in place — one pass along the
+    /// start directions (SHAKE) or the current ones (Gauss–Newton), λ from 0 or not, against
+    /// the dense unsymmetric system's step; and (no stick released) a curvature pass against
+    /// the dense full Newton step.
+    #[test]
+    fn passes_close_several_loops_as_the_dense_system_does() {
+        for variant in 0..4 {
+            let [released, compliant] = [1, 2].map(|bit| variant & bit != 0);
+            let mut solver = several_loops(released, compliant);
+            let set = solver.islands.lines().trees.clone();
+            assert_eq!(set.trees.len(), 1, "one part");
+            assert!(set.trees[0].closing.is_some());
+            assert_eq!(set.trees[0].extra_closings.len(), 2, "closed three times");
+            for root_movable in [false, true] {
+                let root = set.particle[0] as usize;
+                solver.particles.inverse_mass[root] = if root_movable { 0.7 } else { 0.0 };
+                for (shake, lambda) in [(false, 0.0), (false, -0.3), (true, 0.0), (true, -0.3)] {
+                    one_pass_matches_dense(&solver, shake, lambda);
+                }
+            }
+            // Gauss–Newton from λ = 0 and a curvature pass (full Newton, λ warm-started), from
+            // the pinned root (every stick in the system: the dense step's assumption).
+            let root = set.particle[0] as usize;
+            solver.particles.inverse_mass[root] = 0.0;
+            if !released {
+                closed_pass_matches_dense(&solver, false);
+                closed_pass_matches_dense(&solver, true);
+            }
+        }
+    }
+
+    /// The tree of [`passes_close_several_loops_as_the_dense_system_does`].
+    fn several_loops(released: bool, compliant: bool) -> Solver {
+        let mut solver = Solver::default();
+        let mut post = |at: DVec3| {
+            let p = solver.add_particle(at, 0.0);
+            solver.pin(p, at);
+            p
+        };
+        let posts = [
+            post(DVec3::ZERO),
+            post(DVec3::new(0.41, 0.0, 0.0)),
+            post(DVec3::new(0.2, -0.45, 0.1)),
+            post(DVec3::new(0.45, -0.3, -0.05)),
+        ];
+        let mut particle = |at: DVec3, w: f64| solver.add_particle(at, w);
+        let p1 = particle(DVec3::new(0.09, -0.05, 0.01), 1.0);
+        let fork = particle(DVec3::new(0.2, -0.1, 0.0), 2.0);
+        let p3 = particle(DVec3::new(0.31, -0.04, -0.02), 0.5);
+        let branch = particle(DVec3::new(0.21, -0.22, 0.03), 1.0);
+        let twig = particle(DVec3::new(0.33, -0.26, 0.0), 0.3);
+        let weight = particle(DVec3::new(0.2, -0.33, 0.05), 0.01);
+        let mut link = |[a, b]: [u32; 2], kind: StickKind, compliance: f64| {
+            let x = &solver.particles.position;
+            let rest = (x[b as usize] - x[a as usize]).length() * 1.02;
+            let rest = if kind == StickKind::AtMost {
+                rest * 1.5
+            } else {
+                rest
+            };
+            solver
+                .sticks
+                .push([a, b], rest, compliance, kind, f64::INFINITY, 0);
+        };
+        let rope = if released {
+            StickKind::AtMost
+        } else {
+            StickKind::Equal
+        };
+        let soft = if compliant { 3e-4 } else { 0.0 };
+        link([posts[0], p1], StickKind::Equal, 0.0);
+        link([p1, fork], rope, 0.0);
+        link([fork, p3], StickKind::Equal, 0.0);
+        link([posts[1], p3], StickKind::Equal, soft);
+        link([fork, branch], StickKind::Equal, 0.0);
+        link([branch, posts[2]], StickKind::Equal, 0.0);
+        link([branch, twig], StickKind::Equal, 0.0);
+        link([twig, posts[3]], StickKind::Equal, 2e-5);
+        link([branch, weight], StickKind::Equal, 0.0);
+        solver.organize();
+        solver
     }
 
     /// The closed tree of [`a_pass_closes_the_loop_as_the_dense_system_does`], varied.
@@ -360,6 +458,7 @@ mod tests {
             .map(|k| lambda * (1.0 + 0.1 * k as f64))
             .collect();
         let mut active = Vec::new();
+        let mut more = vec![Closing::default(); s.len() * view.extra.len()];
         let (position, after) = run_pass(solver, &warm, shake, |solve| {
             solve.check(&view);
             // SAFETY: this test alone holds the slices; `check` passed; the root and the closing
@@ -371,8 +470,8 @@ mod tests {
                         solve.row(&view, t.unwrap()).active
                     })
                     .collect();
-                solve.forward::<false, true>(&view, &mut s);
-                solve.close(&view, &mut s);
+                solve.forward::<false, true>(&view, (&mut s, &mut more));
+                solve.close(&view, (&mut s, &mut more));
                 solve.backward(&view, &mut s);
             }
         });

@@ -36,7 +36,8 @@
 
 use super::super::direct::{in_system, violation};
 use super::super::kkt::{self, Link, Load, Reduced, Subtree};
-use super::{Node, TreeSolve, TreeView};
+use super::closings::{Closings, closing_index};
+use super::{Closing, MAX_CLOSINGS, Node, TreeSolve, TreeView};
 use glam::DVec3;
 
 /// A tree node's share of a curvature pass.
@@ -78,6 +79,36 @@ impl TreeSolve<'_, '_> {
         for (node, &p) in c.iter_mut().zip(view.particle) {
             // SAFETY: in bounds (`check`) and this task's (caller).
             node.predicted = unsafe { self.position.get_unchecked(p as usize) };
+        }
+    }
+
+    /// Keeps the start of the substep (`previous`) of every node, for
+    /// [`TreeSolve::restore_start`].
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::keep_prediction`].
+    pub(super) unsafe fn keep_start(&self, view: &TreeView, c: &mut [TreeCurvature]) {
+        for (node, &p) in c.iter_mut().zip(view.particle) {
+            // SAFETY: in bounds (`check`) and this task's (caller).
+            node.kept = unsafe { self.previous.get_unchecked(p as usize) };
+        }
+    }
+
+    /// Puts the start of the substep back where [`TreeSolve::keep_start`] kept it, and moves
+    /// the current positions back by as much (they were moved with it).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::keep_prediction`], after [`TreeSolve::keep_start`] this substep.
+    pub(super) unsafe fn restore_start(&self, view: &TreeView, c: &[TreeCurvature]) {
+        for (node, &p) in c.iter().zip(view.particle) {
+            let p = p as usize;
+            // SAFETY: in bounds (`check`) and this task's (caller).
+            unsafe {
+                let moved = self.previous.get_unchecked(p) - node.kept;
+                self.previous.set_unchecked(p, node.kept);
+                self.position
+                    .set_unchecked(p, self.position.get_unchecked(p) - moved);
+            }
         }
     }
 
@@ -124,7 +155,7 @@ impl TreeSolve<'_, '_> {
     pub(super) unsafe fn second_try(
         &self,
         view: &TreeView,
-        c: &mut [TreeCurvature],
+        (c, more): (&mut [TreeCurvature], &mut [Closing]),
     ) -> (u32, bool) {
         // SAFETY: as above (this function's contract).
         unsafe {
@@ -134,7 +165,7 @@ impl TreeSolve<'_, '_> {
                 return (0, true);
             }
             self.swap_iterate(view, c, true);
-            let (passes, again) = self.full_newton(view, c, super::MAX_PASSES);
+            let (passes, again) = self.full_newton(view, (c, more), super::MAX_PASSES);
             let (second, _) = self.distances(view, c);
             // (The second kept over a NaN first.)
             let nearer = !converged || second < first || first.is_nan();
@@ -411,7 +442,7 @@ impl TreeSolve<'_, '_> {
         &self,
         view: &TreeView,
         s: &[Node],
-        c: &mut [TreeCurvature],
+        (c, more): (&mut [TreeCurvature], &mut [Closing]),
     ) {
         for (node, &k) in s.iter().zip(view.stick).skip(1) {
             let k = k as usize;
@@ -419,7 +450,7 @@ impl TreeSolve<'_, '_> {
             unsafe { self.lambda.set_unchecked(k, self.warm_of(k, node.warm)) };
         }
         // SAFETY: as above (this function's contract).
-        unsafe { self.eliminate::<false>(view, c) };
+        unsafe { self.eliminate::<false>(view, c, more) };
     }
 
     /// Full Newton passes from the current iterate (its residual measured against the
@@ -433,12 +464,12 @@ impl TreeSolve<'_, '_> {
     pub(super) unsafe fn full_newton(
         &self,
         view: &TreeView,
-        c: &mut [TreeCurvature],
+        (c, more): (&mut [TreeCurvature], &mut [Closing]),
         budget: u32,
     ) -> (u32, bool) {
         for passes in 0..budget {
             // SAFETY: as above (this function's contract).
-            unsafe { self.eliminate::<true>(view, c) };
+            unsafe { self.eliminate::<true>(view, c, more) };
             // SAFETY: as above.
             if unsafe { self.residual(view) } <= super::TOLERANCE {
                 return (passes + 1, true);
@@ -457,7 +488,16 @@ impl TreeSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`TreeSolve::full_newton`].
-    unsafe fn eliminate<const MOVED: bool>(&self, view: &TreeView, c: &mut [TreeCurvature]) {
+    unsafe fn eliminate<const MOVED: bool>(
+        &self,
+        view: &TreeView,
+        c: &mut [TreeCurvature],
+        more: &mut [Closing],
+    ) {
+        if !view.extra.is_empty() {
+            // SAFETY: as for this function (caller).
+            return unsafe { self.eliminate_many::<MOVED>(view, c, more) };
+        }
         for node in c.iter_mut() {
             node.below = Subtree::default();
             node.carried = DVec3::ZERO;
@@ -559,6 +599,192 @@ impl TreeSolve<'_, '_> {
                 self.shift(*view.particle.get_unchecked(t) as usize, dx);
             }
         }
+    }
+
+    /// [`TreeSolve::eliminate`] in a tree with extra closing sticks (its root immovable): each
+    /// closing stick's curvature and force join its held end's equation, and a unit change of
+    /// each closing multiplier is carried to the root as a load of its own (the first's in
+    /// `c`, the others' in `more`, node `t`'s at `t · e + i`); the multipliers' changes then
+    /// solve the closing rows' small dense system ([`TreeSolve::closing_changes`]), as the
+    /// Gauss–Newton passes' do (see [`closure`](super::closure)).
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::full_newton`].
+    unsafe fn eliminate_many<const MOVED: bool>(
+        &self,
+        view: &TreeView,
+        c: &mut [TreeCurvature],
+        more: &mut [Closing],
+    ) {
+        let e = view.extra.len();
+        for node in c.iter_mut() {
+            node.below = Subtree::default();
+            node.carried = DVec3::ZERO;
+        }
+        for record in more.iter_mut() {
+            record.load = DVec3::ZERO;
+        }
+        let mut links = [None; MAX_CLOSINGS];
+        for t in (1..view.particle.len()).rev() {
+            // SAFETY: `t` and its parent (< t) are nodes of the view, every index passed
+            // `check`, the particles and multipliers are this task's (caller).
+            unsafe {
+                let row = self.row(view, t);
+                let k = row.stick;
+                if !row.active {
+                    self.lambda.set_unchecked(k, 0.0);
+                }
+                let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
+                let held = *view.particle.get_unchecked(parent) as usize;
+                let child = *view.particle.get_unchecked(t) as usize;
+                let closing = closing_index(view, t);
+                let mut link = Link {
+                    normal: row.normal * row.sign, // (from the parent to the child)
+                    c: row.c,
+                    length: row.c + *self.sticks.rest_length.get_unchecked(k),
+                    lambda: self.lambda.get_unchecked(k),
+                    alpha: *self.sticks.compliance.get_unchecked(k) * self.inv_h2,
+                    inverse_mass: *self.inverse_mass.get_unchecked(child),
+                    offset: DVec3::ZERO,
+                    active: row.active,
+                };
+                if let Some(j) = closing {
+                    // (From the immovable end to the held one, as a line's closing stick.)
+                    (link.normal, link.inverse_mass) =
+                        (-link.normal, *self.inverse_mass.get_unchecked(held));
+                    let into = c.get_unchecked_mut(parent);
+                    into.below.add(&kkt::closing_load(&link));
+                    match j {
+                        0 => into.carried += link.normal,
+                        j => more[parent * e + j - 1].load += link.normal,
+                    }
+                    links[j] = Some(link);
+                    continue;
+                }
+                if MOVED {
+                    link.offset = self.offset_of(child, c.get_unchecked(t).predicted);
+                }
+                let (reduced, up) = kkt::reduce(&link, &c.get_unchecked(t).below);
+                let node = c.get_unchecked_mut(t);
+                node.reduced = reduced;
+                let load_up;
+                (node.load, load_up) = reduced.carry(link.normal, node.carried);
+                let mut ups = [DVec3::ZERO; MAX_CLOSINGS];
+                for (record, up) in more[t * e..(t + 1) * e].iter_mut().zip(&mut ups) {
+                    let load;
+                    (load, *up) = reduced.carry(link.normal, record.load);
+                    (record.v, record.beta) = load.parts();
+                }
+                let into = c.get_unchecked_mut(parent);
+                into.below.add(&up);
+                into.carried += load_up;
+                for (record, up) in more[parent * e..(parent + 1) * e].iter_mut().zip(ups) {
+                    record.load += up;
+                }
+            }
+        }
+        // SAFETY: as above.
+        let d_lambda = unsafe { self.closing_changes(view, (c, more), &links) };
+        let root = view.particle[0] as usize;
+        let root_offset = match MOVED {
+            // SAFETY: as above.
+            true => unsafe { self.offset_of(root, c[0].predicted) },
+            false => DVec3::ZERO,
+        };
+        c[0].dx = kkt::root_step(self.inverse_mass[root], &c[0].below, root_offset);
+        // SAFETY: as above.
+        unsafe { self.shift(root, c[0].dx) };
+        for t in 1..view.particle.len() {
+            let parent = (view.parent[t] - view.offset) as usize;
+            let (parent_dx, node) = (c[parent].dx, &c[t]);
+            let (d_lambda, dx) = match closing_index(view, t) {
+                // (A closing node is immovable.)
+                Some(j) => (d_lambda[j], DVec3::ZERO),
+                None => {
+                    let (v, beta) = node.load.parts();
+                    let (mut v, mut beta) = (v * d_lambda[0], beta * d_lambda[0]);
+                    for (record, &change) in more[t * e..(t + 1) * e].iter().zip(&d_lambda[1..]) {
+                        (v, beta) = (v + record.v * change, beta + record.beta * change);
+                    }
+                    node.reduced.substitute_added(v, beta, parent_dx)
+                }
+            };
+            c[t].dx = dx;
+            let k = view.stick[t] as usize;
+            // SAFETY: as above.
+            unsafe {
+                self.lambda.set(k, self.lambda.get(k) + d_lambda);
+                self.shift(view.particle[t] as usize, dx);
+            }
+        }
+    }
+
+    /// The closing multipliers' changes in a tree with extra closing sticks: a back
+    /// substitution from the (immovable) root to the closing sticks' held ends that moves
+    /// nothing gives each held end's `Δx⁰` and `Δxⁱ` per unit change of closing multiplier
+    /// `i`; then the closing rows `n_j·(Δx⁰ + Σᵢ Δλᵢ Δxⁱ) + α̃_j Δλ_j = −(C_j + α̃_j λ_j)` (a
+    /// released row: `Δλ_j = −λ_j`) are solved together. Zero (released rows `−λ`) where
+    /// that system is singular.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::full_newton`], after [`TreeSolve::eliminate_many`]'s traversal.
+    unsafe fn closing_changes(
+        &self,
+        view: &TreeView,
+        (c, more): (&mut [TreeCurvature], &mut [Closing]),
+        links: &[Option<Link>; MAX_CLOSINGS],
+    ) -> [f64; MAX_CLOSINGS] {
+        let e = view.extra.len();
+        (c[0].dx, c[0].dx_unit) = (DVec3::ZERO, DVec3::ZERO);
+        for record in &mut more[..e] {
+            record.dx = DVec3::ZERO;
+        }
+        let held = |j: usize| {
+            let node = if j == 0 {
+                view.closing
+            } else {
+                Some(view.extra[j - 1] as usize)
+            };
+            node.map(|t| (view.parent[t] - view.offset) as usize)
+        };
+        // (Parents come before their children: the paths to the held ends are done by then.)
+        let last = (0..=e).filter_map(held).max().unwrap_or(0);
+        for t in 1..=last {
+            let parent = (view.parent[t] - view.offset) as usize;
+            let (parent_dx, parent_unit) = (c[parent].dx, c[parent].dx_unit);
+            let node = &mut c[t];
+            node.dx = node.reduced.substitute(parent_dx).1;
+            node.dx_unit = node.reduced.substitute_load(&node.load, parent_unit).1;
+            for i in 0..e {
+                let parent_unit = more[parent * e + i].dx;
+                let record = &mut more[t * e + i];
+                let load = Load::from_parts(record.v, record.beta);
+                record.dx = node.reduced.substitute_load(&load, parent_unit).1;
+            }
+        }
+        let mut rows = Closings::default();
+        for (j, link) in links[..=e].iter().enumerate() {
+            let (Some(link), Some(held)) = (link, held(j)) else {
+                rows.release(j, 0.0);
+                continue;
+            };
+            if !link.active {
+                rows.release(j, -link.lambda);
+                continue;
+            }
+            let n = link.normal;
+            let units = std::iter::once(c[held].dx_unit).chain(
+                more[held * e..(held + 1) * e]
+                    .iter()
+                    .map(|record| record.dx),
+            );
+            for (i, unit) in units.enumerate() {
+                rows.matrix[j][i] = n.dot(unit);
+            }
+            rows.diagonal(j, link.alpha);
+            rows.rhs[j] = -(link.c + link.alpha * link.lambda) - n.dot(c[held].dx);
+        }
+        rows.solve(e + 1)
     }
 
     /// The closing multiplier's change: a back substitution from the (immovable) root to the
@@ -663,7 +889,7 @@ mod tests {
         let (position, lambda) = run_pass(&solver, &vec![0.0; sticks], true, |solve| {
             solve.check(&view);
             // SAFETY: this test alone holds the slices; `check` passed; only the root is pinned.
-            unsafe { solve.curvature_pass(&view, &s, &mut c) };
+            unsafe { solve.curvature_pass(&view, &s, (&mut c, &mut [])) };
         });
         // (Within the regularisation of `D`, 10⁻⁹ relative, times the system's conditioning.)
         kkt::dense::assert_newton_step(
