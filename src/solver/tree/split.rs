@@ -1,4 +1,4 @@
-//! A tree held by three or more immovable particles, split at them into trees of at most two.
+//! A tree held by three or more immovable particles, split at them into independent trees.
 //!
 //! # Why
 //! The elimination of [`tree`](super) closes one loop through the ground (a second immovable
@@ -14,10 +14,11 @@
 //! into the parts that their sticks connect without passing through an immovable particle,
 //! and each part becomes a tree of its own: rooted at the immovable particle of its first
 //! attachment (a stick from the part to an immovable particle), the second attachment's
-//! immovable particle its closing node. Solved one after the other, the parts are solved
-//! exactly as the whole would be. An immovable particle appears once per part it holds (a post
-//! with a rope on either side roots both). Where a part hangs on three or more immovable
-//! particles (a Y rope held by its three ends), the island stays on lines.
+//! immovable particle its closing node, further ones its extra closing nodes (see
+//! [`closings`](super::closings)). Solved one after the other, the parts are solved exactly as
+//! the whole would be. An immovable particle appears once per part it holds (a post with a
+//! rope on either side roots both). Where a part hangs on more than [`MAX_CLOSINGS`] + 1
+//! immovable particles, the island stays on lines.
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
@@ -62,8 +63,9 @@ use std::ops::Range;
 
 /// Appends one tree per part of a tree-shaped island cut at its immovable particles (see the
 /// [module docs](self)); returns the range of the new trees in `set.trees`, empty (and nothing
-/// appended) where a part hangs on more than two immovable particles, holds none, or the
-/// island is not a tree. `queue` and `seen` as for [`build`](super::build) (`seen` as long as the particles).
+/// appended) where a part hangs on more than [`MAX_CLOSINGS`] + 1 immovable particles, holds
+/// none, or the island is not a tree. `queue` and `seen` as for [`build`](super::build) (`seen`
+/// as long as the particles).
 pub(super) fn split_at_immovable(
     set: &mut TreeSet,
     (queue, seen): (&mut Vec<u32>, &mut [bool]),
@@ -112,8 +114,9 @@ pub(super) fn split_at_immovable(
 
 /// Appends the part of the tree that stick `k` leads into from immovable particle `root`
 /// (breadth-first over movable particles, each marked in `seen` and pushed on `queue`), with
-/// `root` as its root and the one further immovable particle it reaches, if any, as its
-/// closing node. `false` where it reaches two more, or a particle twice (a loop).
+/// `root` as its root, the first further immovable particle it reaches as its closing node and
+/// the others as extra closing nodes. `false` where it reaches more than [`MAX_CLOSINGS`], or a
+/// particle twice (a loop).
 fn append_part(
     set: &mut TreeSet,
     (queue, seen): (&mut Vec<u32>, &mut [bool]),
