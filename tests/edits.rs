@@ -499,6 +499,53 @@ fn grabbing_a_forked_rope_rebuilds_it_as_a_closed_tree() {
     );
 }
 
+/// A forked rope held by three pins is split at them (`solver::tree`): a particle made
+/// weightless in place (immovable: a fourth pin without a `Pin`) and made movable again each
+/// take a rebuild, as a pin added or taken away does, and the rope stays on its constraints.
+#[test]
+fn a_tree_split_at_its_pins_rebuilds_when_a_particle_changes_sides() {
+    let mut app = app();
+    let rope = spawn(&mut app, |c| {
+        // (A rope sagging between two posts, a branch from it down to a third.)
+        let sag = |t: f32| Vec3::new(t, -0.6 * t * (1.0 - t), 0.0);
+        let rope: Vec<Entity> = (0..=10)
+            .map(|i| c.spawn(Particle::new(sag(i as f32 / 10.0))).id())
+            .collect();
+        for pair in rope.windows(2) {
+            c.spawn(Stick::new(pair[0], pair[1]));
+        }
+        for (i, at) in [(0, sag(0.0)), (10, sag(1.0))] {
+            c.entity(rope[i]).insert(Pin::at(at));
+        }
+        let mut from = rope[4];
+        for i in 1..=5 {
+            let at = sag(0.4) + Vec3::new(0.02 * i as f32, -0.08 * i as f32, 0.0);
+            let p = c.spawn(Particle::new(at)).id();
+            c.spawn(Stick::new(from, p));
+            from = p;
+        }
+        let below = sag(0.4) + Vec3::new(0.1, -0.4, 0.0);
+        c.entity(from).insert(Pin::at(below));
+        rope
+    });
+    step(&mut app, 2);
+    let before = rebuilds(&app);
+    let middle = rope[7];
+    for w in [0.0, 1.0] {
+        app.world_mut()
+            .get_mut::<Particle>(middle)
+            .unwrap()
+            .inverse_mass = w;
+        step(&mut app, 1);
+        step(&mut app, 16);
+        check_consistency(&mut app).unwrap();
+        let strain = max_strain(&mut app);
+        println!("inverse mass {w}: largest strain {strain:.1e}");
+        assert!(strain < 1e-5, "strain {strain}");
+    }
+    assert_eq!(rebuilds(&app), before + 2, "each change of sides rebuilds");
+}
+
 /// `Pin::follow` maps its offset through the target's up-to-date `GlobalTransform`: a child of
 /// a rotated and scaled parent (before: the child's local translation plus the offset,
 /// (1.5, 0, 0) instead of (1, 3, 0)).

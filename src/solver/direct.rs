@@ -1248,24 +1248,24 @@ impl LineSolve<'_, '_> {
             // particles, the start of a line's substep does not satisfy its constraints.)
             let checks_reach = self.alone && v.mode.get_unchecked(line.offset) != LineMode::Shake;
             let mut far = false;
-            // The last immovable particle, the rest length of the rigid sticks since (∞ once a
-            // stick that can stretch is passed) and whether a movable particle was passed since
-            // (a stick between two immovable particles is out of the system, never singular:
-            // counted taut, it had a rope pinned at two neighbouring particles swept in every
-            // substep).
+            // The last immovable particle, where it is on the line, and the rest length of the
+            // rigid sticks since (∞ once a stick that can stretch is passed). (Only with a
+            // movable particle between: a stick between two immovable particles is out of the
+            // system, never singular — counted taut, it had a rope pinned at two neighbouring
+            // particles swept in every substep.)
             let (mut anchor, mut anchor_rest): (Option<DVec3>, f64) = (None, 0.0);
-            let mut movable_since = false;
+            let mut next_to_anchor = 0;
             let mut x = self.position.get_unchecked(line.p(0));
             for j in 0..=m {
                 let p = line.p(j);
                 let w = self.w(p);
                 if w <= 0.0 {
-                    if let (Some(at), true) = (anchor, movable_since) {
+                    if let Some(at) = anchor
+                        && j > next_to_anchor
+                    {
                         taut |= (x - at).length() >= anchor_rest * (1.0 - TAUT);
                     }
-                    (anchor, anchor_rest, movable_since) = (Some(x), 0.0, false);
-                } else {
-                    movable_since = true;
+                    (anchor, anchor_rest, next_to_anchor) = (Some(x), 0.0, j + 1);
                 }
                 let mut after = DVec3::ZERO;
                 let mut x_next = DVec3::ZERO;

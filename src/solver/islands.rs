@@ -106,7 +106,8 @@ pub struct Island {
     /// Its trees (a range into [`TreeSet::trees`](super::TreeSet::trees)) when it is solved by
     /// lines and is a tree with a fork: one, or one per part where three or more immovable
     /// particles split it ([`tree`](super::tree)'s `split`); then it has no lines and is solved
-    /// whole. Empty otherwise (and where a part hangs on three or more immovable particles).
+    /// whole. Empty otherwise (and where a part hangs on more than
+    /// [`MAX_CLOSINGS`](super::MAX_CLOSINGS) + 1 immovable particles).
     pub trees: Range<u32>,
     /// Its hierarchy (index into [`HierarchySet::list`](super::HierarchySet::list)) when it is
     /// solved by [`Method::Hierarchy`] and has a mesh to coarsen (see

@@ -115,7 +115,7 @@ pub use sticks::{StickKind, Sticks, relax_sticks};
 pub use symmetric::SYMMETRIC_MASS_RATIO;
 pub use tear::tear;
 pub use tethers::{DEFAULT_TETHER_ANCHORS, MAX_TETHER_ANCHORS, Tethers, relax_tethers};
-pub use tree::{Tree, TreeSet};
+pub use tree::{MAX_CLOSINGS, Tree, TreeSet};
 
 use glam::DVec3;
 

@@ -138,7 +138,12 @@ impl Tree {
 }
 
 /// The most closing sticks a tree's elimination closes (its immovable particles besides the
-/// root): a part of a tree held by more stays on lines.
+/// root): a tree with a part held by more stays on lines.
+///
+/// ```
+/// // A part of a tree held by up to five pins is solved whole.
+/// assert_eq!(bevy_verlet_physics::solver::MAX_CLOSINGS, 4);
+/// ```
 pub const MAX_CLOSINGS: usize = 4;
 
 /// Every tree-solved island's nodes (breadth-first from the root, tree after tree).
@@ -196,7 +201,8 @@ impl TreeSet {
 /// Roots a tree at the island's (first) immovable particle and appends its nodes to `set`;
 /// returns the range of its trees in `set.trees`: one, or one per part where three or more
 /// immovable particles split it (see [`split`]); empty when the island should stay on lines:
-/// no fork (a chain), a part held by more than two immovable particles, or not connected. A
+/// no fork (a chain), a part held by more than [`MAX_CLOSINGS`] + 1 immovable particles, or not
+/// connected. A
 /// second immovable particle becomes the tree's [`closing`](Tree::closing) node. `queue` and
 /// `seen` are scratch (`seen` as long as the particles, all `false`, left so).
 pub(crate) fn build(
@@ -642,13 +648,14 @@ impl TreeSolve<'_, '_> {
         view.closing.is_none() || self.inverse_mass[view.particle[0] as usize] <= 0.0
     }
 
-    /// `true` when a particle other than the root and the closing nodes is immovable.
+    /// `true` when a particle other than the root and the closing nodes is immovable (the
+    /// closing nodes are, see [`TreeSolve::view_of`]).
     fn pinned_below_root(&self, view: &TreeView) -> bool {
-        (1..view.particle.len()).any(|t| {
-            Some(t) != view.closing
-                && !view.extra.contains(&(t as u32))
-                && self.inverse_mass[view.particle[t] as usize] <= 0.0
-        })
+        let closing = usize::from(view.closing.is_some()) + view.extra.len();
+        let immovable = (1..view.particle.len())
+            .filter(|&t| self.inverse_mass[view.particle[t] as usize] <= 0.0)
+            .count();
+        immovable > closing
     }
 
     /// One Gauss–Seidel sweep over the tree's sticks, root to leaves (no warm start after it).
@@ -690,6 +697,11 @@ impl TreeSolve<'_, '_> {
         // SAFETY: the tree's particles and multipliers are this task's (caller).
         unsafe {
             s[0].stiffness = 0.0;
+            if !view.extra.is_empty() {
+                // (A stretched rope link too where the tree has extra closing sticks: see
+                // `stabilise_start`.)
+                violated = violated.max(self.stretched_ropes(view));
+            }
             for t in 1..s.len() {
                 let k = view.stick[t] as usize;
                 let node = &mut s[t];
@@ -700,16 +712,10 @@ impl TreeSolve<'_, '_> {
                 let length = d.length();
                 let rest = self.sticks.rest_length[k].max(1e-12);
                 predicted = predicted.max((length - rest).abs() / rest);
-                // (A stretched rope link too where the tree has extra closing sticks: see
-                // `stabilise_start`.)
-                let off = match self.sticks.kind[k] {
-                    StickKind::Equal => (start_length - rest).abs(),
-                    StickKind::AtMost if !view.extra.is_empty() => (start_length - rest).max(0.0),
-                    _ => 0.0,
-                };
-                let rigid = self.sticks.compliance[k] == 0.0;
+                let rigid =
+                    self.sticks.kind[k] == StickKind::Equal && self.sticks.compliance[k] == 0.0;
                 if rigid && self.inverse_mass[a] + self.inverse_mass[b] > 0.0 {
-                    violated = violated.max(off / rest);
+                    violated = violated.max((start_length - rest).abs() / rest);
                 }
                 shake &= start.dot(d) >= SHAKE_MIN_COSINE * length;
                 if !in_system(self.sticks.kind[k], length - rest, rest) {
@@ -750,13 +756,36 @@ impl TreeSolve<'_, '_> {
         }
     }
 
+    /// The largest stretch of the tree's rigid rope links (`AtMost`) at the start of the
+    /// substep, relative to their rest lengths.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`].
+    #[inline(never)]
+    unsafe fn stretched_ropes(&self, view: &TreeView) -> f64 {
+        let mut worst: f64 = 0.0;
+        for &k in &view.stick[1..] {
+            let k = k as usize;
+            let rope = self.sticks.kind[k] == StickKind::AtMost && self.sticks.compliance[k] == 0.0;
+            let [a, b] = self.sticks.ends[k].map(|p| p as usize);
+            if rope && self.inverse_mass[a] + self.inverse_mass[b] > 0.0 {
+                // SAFETY: the tree's particles are this task's (caller).
+                let d = unsafe { self.previous.get(b) - self.previous.get(a) };
+                let rest = self.sticks.rest_length[k].max(1e-12);
+                worst = worst.max((d.length() - rest).max(0.0) / rest);
+            }
+        }
+        worst
+    }
+
     /// Moves the start-of-substep positions onto the constraints (Newton on the previous
     /// positions) and the current positions by the same amounts, so a violation at the start —
     /// an edited rest length, a spawn — is corrected without becoming velocity (as the line
-    /// solve's `stabilise_start`). Where its passes end unconverged and farther off the
-    /// constraints than they began (start positions no point satisfies: pins pulled apart
-    /// beyond the paths between them), the start is left as it was: such passes had thrown a
-    /// tree held by four waving pins 2000 link lengths (`tests/direct.rs`).
+    /// solve's `stabilise_start`). In a tree with extra closing sticks, where its passes end
+    /// unconverged and farther off the constraints than they began (start positions no point
+    /// satisfies: pins pulled apart beyond the paths between them), the start is left as it
+    /// was: such passes had thrown a tree held by four waving pins 2000 link lengths (a
+    /// scratch scan; other trees keep their figures, see the module docs).
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`], with `c` as long as `s` (or empty: nothing left as it was).
@@ -851,6 +880,7 @@ impl TreeSolve<'_, '_> {
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
+    #[inline(always)]
     unsafe fn row(&self, view: &TreeView, t: usize) -> Row {
         // SAFETY: `t` is a node of the view and every index below passed `check` (caller).
         let (k, [a, b], d) = unsafe {
@@ -929,10 +959,10 @@ impl TreeSolve<'_, '_> {
     ) -> f64 {
         // SAFETY: as for `solve` (caller).
         unsafe {
-            if view.closing.is_some() {
-                self.forward::<MEASURE, true>(view, (s, more))
-            } else {
-                self.forward::<MEASURE, false>(view, (s, &mut []))
+            match (view.closing.is_some(), view.extra.is_empty()) {
+                (false, _) => self.forward::<MEASURE, false, false>(view, (s, &mut [])),
+                (true, true) => self.forward::<MEASURE, true, false>(view, (s, &mut [])),
+                (true, false) => self.forward::<MEASURE, true, true>(view, (s, more)),
             }
         }
     }
@@ -941,23 +971,26 @@ impl TreeSolve<'_, '_> {
     /// the residual at the iterate, as [`TreeSolve::residual`] does (else 0). With `CLOSED`, the
     /// closing stick is left out of the reduction and a unit change of its multiplier is carried
     /// as a second load (`g¹`, `v¹ = A⁻¹ g¹`, `β¹ = −n·v¹ / D`) for [`TreeSolve::close`]; each
-    /// extra closing stick's likewise, in `more` (node `t`'s at `t · e + i`, `e` extra
-    /// closings).
+    /// extra closing stick's likewise with `MANY`, in `more` (node `t`'s at `t · e + i`, `e`
+    /// extra closings).
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
-    unsafe fn forward<const MEASURE: bool, const CLOSED: bool>(
+    unsafe fn forward<const MEASURE: bool, const CLOSED: bool, const MANY: bool>(
         &self,
         view: &TreeView,
         (s, more): (&mut [Node], &mut [Closing]),
     ) -> f64 {
         let shake = s[0].mode == LineMode::Shake;
         let mut worst: f64 = 0.0;
-        let e = view.extra.len();
+        let e = if MANY { view.extra.len() } else { 0 };
         // (Every other node clears its accumulators once it has used them, below.)
         s[0].clear();
-        for record in &mut more[..e] {
-            record.load = DVec3::ZERO;
+        if MANY {
+            // (Every record: a curvature pass between two of these leaves its loads.)
+            for record in more.iter_mut() {
+                record.load = DVec3::ZERO;
+            }
         }
         for t in (1..view.particle.len()).rev() {
             // SAFETY: the tree's particles and multipliers are this task's, `t` and its parent
@@ -983,12 +1016,14 @@ impl TreeSolve<'_, '_> {
                     } else {
                         DVec3::ZERO
                     };
-                    for record in &mut more[t * e..(t + 1) * e] {
-                        record.v = match w > 0.0 {
-                            true => node.solve_pair(record.load, DVec3::ZERO).0,
-                            false => DVec3::ZERO,
-                        };
-                        record.load = DVec3::ZERO;
+                    if MANY {
+                        for record in &mut more[t * e..(t + 1) * e] {
+                            record.v = match w > 0.0 {
+                                true => node.solve_pair(record.load, DVec3::ZERO).0,
+                                false => DVec3::ZERO,
+                            };
+                            record.load = DVec3::ZERO;
+                        }
                     }
                 }
                 node.clear();
@@ -1007,16 +1042,18 @@ impl TreeSolve<'_, '_> {
                     worst = worst.max(error);
                 }
                 let parent = (*view.parent.get_unchecked(t) - view.offset) as usize;
-                let closing = if CLOSED {
-                    closings::closing_index(view, t)
-                } else {
-                    None
+                let closing = match (CLOSED, MANY) {
+                    (false, _) => None,
+                    (true, true) => closings::closing_index(view, t),
+                    (true, false) => (Some(t) == view.closing).then_some(0),
                 };
                 if let Some(j) = closing {
                     // A closing stick: its multiplier is solved by `close`; a unit change of it
                     // loads its other end, `∓w r`.
                     (node.a, node.beta, node.closing.beta) = (DVec3::ZERO, 0.0, 0.0);
-                    set_betas(&mut more[t * e..(t + 1) * e], |_| 0.0);
+                    if MANY {
+                        set_betas(&mut more[t * e..(t + 1) * e], |_| 0.0);
+                    }
                     let wp = *self
                         .inverse_mass
                         .get_unchecked(*view.particle.get_unchecked(parent) as usize);
@@ -1035,7 +1072,9 @@ impl TreeSolve<'_, '_> {
                     node.a = DVec3::ZERO;
                     node.beta = -row.lambda;
                     node.closing.beta = 0.0;
-                    set_betas(&mut more[t * e..(t + 1) * e], |_| 0.0);
+                    if MANY {
+                        set_betas(&mut more[t * e..(t + 1) * e], |_| 0.0);
+                    }
                 } else if d == 0.0 || !d.is_finite() {
                     // (Under SHAKE the system is not symmetric and a pivot may be negative;
                     // zero is a stick no particle of its subtree can move: an immovable child,
@@ -1043,14 +1082,18 @@ impl TreeSolve<'_, '_> {
                     node.a = DVec3::ZERO;
                     node.beta = 0.0;
                     node.closing.beta = 0.0;
-                    set_betas(&mut more[t * e..(t + 1) * e], |_| 0.0);
+                    if MANY {
+                        set_betas(&mut more[t * e..(t + 1) * e], |_| 0.0);
+                    }
                     continue;
                 } else {
                     node.a = n / d;
                     node.beta = (-residual - n.dot(node.v)) / d;
                     if CLOSED {
                         node.closing.beta = -n.dot(node.closing.v) / d;
-                        set_betas(&mut more[t * e..(t + 1) * e], |v| -n.dot(v) / d);
+                        if MANY {
+                            set_betas(&mut more[t * e..(t + 1) * e], |v| -n.dot(v) / d);
+                        }
                     }
                 }
                 // Into the parent: A_p −= w_p s_p r aᵀ, g_p += w_p s_p r β (s_p = −s_j).
@@ -1058,9 +1101,11 @@ impl TreeSolve<'_, '_> {
                     .inverse_mass
                     .get_unchecked(*view.particle.get_unchecked(parent) as usize);
                 let pull = r * (wp * row.sign);
-                for i in 0..e {
-                    let beta = more[t * e + i].beta;
-                    more[parent * e + i].load -= pull * beta;
+                if MANY {
+                    for i in 0..e {
+                        let beta = more[t * e + i].beta;
+                        more[parent * e + i].load -= pull * beta;
+                    }
                 }
                 let parent = earlier.get_unchecked_mut(parent);
                 parent.add_child(pull, node.a);

@@ -458,8 +458,8 @@ impl VerletState {
         if self.solver.tethered.contains(&true) {
             return false;
         }
-        // A tree solved whole is rooted at its pin, its second one closes a loop (see
-        // `solver::tree`): another pin re-roots it or takes it back to lines.
+        // A tree solved whole is rooted at its pin, its other pins close loops or split it (see
+        // `solver::tree`): another pin changes how.
         let islands = &self.solver.islands;
         let tree = islands
             .of_particle(slot)
@@ -482,20 +482,19 @@ impl VerletState {
 
     /// Unpins solver pin `index` in place, giving its particle inverse mass `w` back (it keeps
     /// the pin's last velocity). `false` when that takes a rebuild (tethers; a tree-solved
-    /// island held by three or more pins, see `solver::tree`: split at its pins, the parts
-    /// would move the particle one by one, and its trees' closing sticks hang on its pins).
+    /// island held by three or more immovable particles, [`VerletState::tree_held_thrice`]:
+    /// split at them, the parts would move the particle one by one).
     pub(crate) fn remove_pin(&mut self, index: usize, w: f64) -> bool {
         if self.solver.tethered.contains(&true) {
             return false;
         }
-        let islands = &self.solver.islands;
-        let closed_often = self.solver.pins.particle.get(index).is_some_and(|&slot| {
-            islands.of_particle(slot).is_some_and(|k| {
-                let island = &islands.list[k];
-                !island.trees.is_empty() && island.pins.len() >= 3
-            })
-        });
-        if closed_often {
+        let split = self
+            .solver
+            .pins
+            .particle
+            .get(index)
+            .is_some_and(|&slot| self.tree_held_thrice(slot));
+        if split {
             return false;
         }
         let organized = self.solver.is_organized();
@@ -507,6 +506,19 @@ impl VerletState {
         self.shift_pin_ranges(slot, organized, false);
         self.solver.wake(slot);
         true
+    }
+
+    /// `true` when particle `slot`'s island is solved as trees and holds three or more
+    /// immovable particles (pins or weightless particles): it is split at them (see
+    /// `solver::tree`), so making one of them movable, or another immovable, takes a rebuild.
+    pub(crate) fn tree_held_thrice(&self, slot: u32) -> bool {
+        let islands = &self.solver.islands;
+        islands.of_particle(slot).is_some_and(|k| {
+            let island = &islands.list[k];
+            let w = &self.solver.particles.inverse_mass;
+            let held = island.particles.clone().filter(|&p| w[p as usize] <= 0.0);
+            !island.trees.is_empty() && held.count() >= 3
+        })
     }
 
     /// Follows a pin added to (`grow`) or removed from particle `slot` in the islands' pin

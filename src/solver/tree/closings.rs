@@ -153,21 +153,28 @@ impl TreeSolve<'_, '_> {
             rows.rhs[j] = -(row.c + alpha * row.lambda) + n.dot(s[c].dx);
         }
         let d_lambda = rows.solve(m);
-        s[0].load += s[0].closing.load * d_lambda[0];
-        for i in 0..e {
-            s[0].load += more[i].load * d_lambda[i + 1];
-        }
-        for (t, node) in s.iter_mut().enumerate().skip(1) {
-            node.v += node.closing.v * d_lambda[0];
-            node.beta += node.closing.beta * d_lambda[0];
-            for (record, &change) in more[t * e..(t + 1) * e].iter().zip(&d_lambda[1..]) {
-                node.v += record.v * change;
-                node.beta += record.beta * change;
-            }
-        }
+        take_in(&d_lambda, e, s, more);
         for (j, &change) in d_lambda[..m].iter().enumerate() {
             let node = &mut s[node_of(j)];
             (node.a, node.u, node.v, node.beta) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, change);
+        }
+    }
+}
+
+/// Every node's substitution takes the closing multipliers' changes in (`d_lambda[0]` the
+/// first closing stick's, `d_lambda[i + 1]` extra `i`'s): `g₀ += Σ Δλ g⁰ⁱ` at the root,
+/// `v += Σ Δλ vⁱ` and `β += Σ Δλ βⁱ` at every other node.
+fn take_in(d_lambda: &[f64; MAX_CLOSINGS], e: usize, s: &mut [Node], more: &[Closing]) {
+    s[0].load += s[0].closing.load * d_lambda[0];
+    for (record, &change) in more[..e].iter().zip(&d_lambda[1..]) {
+        s[0].load += record.load * change;
+    }
+    for (t, node) in s.iter_mut().enumerate().skip(1) {
+        node.v += node.closing.v * d_lambda[0];
+        node.beta += node.closing.beta * d_lambda[0];
+        for (record, &change) in more[t * e..(t + 1) * e].iter().zip(&d_lambda[1..]) {
+            node.v += record.v * change;
+            node.beta += record.beta * change;
         }
     }
 }

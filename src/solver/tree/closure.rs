@@ -233,7 +233,7 @@ mod tests {
             node.warm = warm[k as usize];
         }
         let mut c = vec![TreeCurvature::default(); s.len()];
-        let mut more = vec![Closing::default(); s.len() * view.extra.len()];
+        let mut more = stale_records(s.len() * view.extra.len());
         let (position, lambda) = run_pass(solver, &vec![0.0; sticks], false, |solve| {
             solve.check(&view);
             // SAFETY: this test alone holds the slices; `check` passed; the closing nodes and
@@ -242,7 +242,7 @@ mod tests {
                 if curvature {
                     solve.curvature_pass(&view, &s, (&mut c, &mut more));
                 } else {
-                    solve.forward::<false, true>(&view, (&mut s, &mut more));
+                    solve.gauss_newton_forward::<false>(&view, (&mut s, &mut more));
                     solve.close(&view, (&mut s, &mut more));
                     solve.backward(&view, &mut s);
                 }
@@ -311,6 +311,16 @@ mod tests {
                 closed_pass_matches_dense(&solver, true);
             }
         }
+    }
+
+    /// `n` extra closing records with loads left in them, as a curvature pass leaves them for
+    /// the Gauss–Newton pass after it (a review found them read): the passes must not use them.
+    fn stale_records(n: usize) -> Vec<Closing> {
+        let stale = Closing {
+            load: DVec3::new(0.3, -0.2, 0.1),
+            ..Closing::default()
+        };
+        vec![stale; n]
     }
 
     /// The tree of [`passes_close_several_loops_as_the_dense_system_does`].
@@ -458,7 +468,7 @@ mod tests {
             .map(|k| lambda * (1.0 + 0.1 * k as f64))
             .collect();
         let mut active = Vec::new();
-        let mut more = vec![Closing::default(); s.len() * view.extra.len()];
+        let mut more = stale_records(s.len() * view.extra.len());
         let (position, after) = run_pass(solver, &warm, shake, |solve| {
             solve.check(&view);
             // SAFETY: this test alone holds the slices; `check` passed; the root and the closing
@@ -470,7 +480,7 @@ mod tests {
                         solve.row(&view, t.unwrap()).active
                     })
                     .collect();
-                solve.forward::<false, true>(&view, (&mut s, &mut more));
+                solve.gauss_newton_forward::<false>(&view, (&mut s, &mut more));
                 solve.close(&view, (&mut s, &mut more));
                 solve.backward(&view, &mut s);
             }
