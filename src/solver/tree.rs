@@ -354,6 +354,16 @@ impl Node {
         self.closing.load = DVec3::ZERO;
     }
 
+    /// The node's `Δx` and its `Δx¹` per unit change of the first closing multiplier, from its
+    /// parent's (non-finite parts as zero).
+    fn substitute_closed(&mut self, parent_dx: DVec3, parent_dx1: DVec3) {
+        let finite = |x: DVec3| if x.is_finite() { x } else { DVec3::ZERO };
+        let step = self.a.dot(parent_dx) + self.beta;
+        self.dx = finite(self.u * step + self.v);
+        let step = self.a.dot(parent_dx1) + self.closing.beta;
+        self.closing.dx = finite(self.u * step + self.closing.v);
+    }
+
     /// Adds a child's `p aᵀ` to `A`.
     fn add_child(&mut self, pull: DVec3, a: DVec3) {
         match self.children {

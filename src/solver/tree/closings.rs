@@ -210,10 +210,7 @@ fn substitute_unit_moves(
         let parent = (view.parent[t] - view.offset) as usize;
         let (parent_dx, parent_dx1) = (s[parent].dx, s[parent].closing.dx);
         let node = &mut s[t];
-        let step = node.a.dot(parent_dx) + node.beta;
-        node.dx = finite(node.u * step + node.v);
-        let step = node.a.dot(parent_dx1) + node.closing.beta;
-        node.closing.dx = finite(node.u * step + node.closing.v);
+        node.substitute_closed(parent_dx, parent_dx1);
         for i in 0..e {
             let parent_dx = more[parent * e + i].dx;
             let record = &mut more[t * e + i];

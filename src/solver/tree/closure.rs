@@ -111,7 +111,6 @@ impl TreeSolve<'_, '_> {
         let Some(closing) = view.closing else {
             return;
         };
-        let finite = |x: DVec3| if x.is_finite() { x } else { DVec3::ZERO };
         let root = view.particle[0] as usize;
         (s[0].dx, s[0].closing.dx) = if self.inverse_mass[root] > 0.0 {
             s[0].solve_pair(s[0].load, s[0].closing.load)
@@ -123,11 +122,7 @@ impl TreeSolve<'_, '_> {
         for t in 1..=c {
             let parent = (view.parent[t] - view.offset) as usize;
             let (parent_dx, parent_dx1) = (s[parent].dx, s[parent].closing.dx);
-            let node = &mut s[t];
-            let step = node.a.dot(parent_dx) + node.beta;
-            node.dx = finite(node.u * step + node.v);
-            let step = node.a.dot(parent_dx1) + node.closing.beta;
-            node.closing.dx = finite(node.u * step + node.closing.v);
+            s[t].substitute_closed(parent_dx, parent_dx1);
         }
         // SAFETY: as for `solve` (caller).
         let row = unsafe { self.row(view, closing) };
