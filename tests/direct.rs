@@ -621,7 +621,7 @@ fn a_chain_pinned_at_neighbouring_particles_is_solved_not_swept() {
 /// at their pins and closed more than once, `solver::tree`) they stretched 3.8·10⁷–7.7·10⁸ link
 /// lengths; with a fall back for lines sharing particles (`solver::direct`'s `fall_back`, which
 /// stays for lines that still meet at forks: meshes forced onto lines, parts of trees held by
-/// more than five pins) 32, 11 and 2 link lengths. Now trees: asserted below 1 % strain
+/// more than nine pins) 32, 11 and 2 link lengths. Now trees: asserted below 1 % strain
 /// (measured 10⁻⁹) and energy never 10 % of the scale above its value after the first step
 /// (measured −19 %, −19 %, 0 %).
 #[test]
@@ -643,7 +643,7 @@ fn trees_that_blew_up_as_lines_meeting_at_forks_stay_unstretched() {
 /// (`Mix::pins`: three or four pins), 8 × 1, loads up to 10⁴×, half kicked by up to 30 m/s:
 /// every scene stays below 1 % strain and never rises 10 % of its scale above its start, as
 /// with one or two pins. Trees are split at their pins into parts held by at most two
-/// (`solver::tree`'s `split`) and parts held by three to five are closed more than once
+/// (`solver::tree`'s `split`) and parts held by three to nine are closed more than once
 /// (`closings`); chains are lines pinned inside. Measured (a scratch scan of 1033 such
 /// scenes, largest strain beyond 100 % before → now): split trees 120 of 221 → 0, trees
 /// closed more than once 145 of 241 → 0 (both were lines meeting at forks), chains 88 of 533

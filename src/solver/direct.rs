@@ -63,7 +63,7 @@
 //! particles kicked by up to 30 m/s reached 10⁸ link lengths, 3 of 1033 in a scratch scan, none
 //! with it (such trees are now split at their pins and closed more than once, see
 //! [`tree`](super::tree); lines still meet at forks in meshes forced onto lines and in trees
-//! with a part held by more than five pins).
+//! with a part held by more than nine pins).
 //! Gauss–Newton passes far from the constraints can wander off, a sweep cannot — unless the
 //! iterate is finite, within [`NEARLY_ON`] of its rigid sticks' constraints, nearer them than
 //! the sweep and not
@@ -106,12 +106,12 @@
 //! the start of a substep (an edited rest length, a spawn) are first corrected on the start
 //! positions too, so the correction does not become velocity (a free L-shaped rope whose links
 //! are shortened by 10 %: 0 instead of 2.4 m/s, `tests/direct.rs`). Not where lines meet at
-//! forks (meshes forced onto lines, trees with a part held by more than five pins): there the
+//! forks (meshes forced onto lines, trees with a part held by more than nine pins): there the
 //! block Gauss–Seidel over lines leaves such violations every substep, and lines correcting one
 //! shared particle's start position in turn fed each other's errors (a Y-shaped rope stretched
 //! 809 % instead of 22 %).
 //! Trees are solved whole instead (see [`tree`](super::tree); three or more pins split them
-//! into parts, each closed once per pin besides its root, up to five pins a part).
+//! into parts, each closed once per pin besides its root, up to nine pins a part).
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};

@@ -141,10 +141,10 @@ impl Tree {
 /// root): a tree with a part held by more stays on lines.
 ///
 /// ```
-/// // A part of a tree held by up to five pins is solved whole.
-/// assert_eq!(bevy_verlet_physics::solver::MAX_CLOSINGS, 4);
+/// // A part of a tree held by up to nine pins is solved whole.
+/// assert_eq!(bevy_verlet_physics::solver::MAX_CLOSINGS, 8);
 /// ```
-pub const MAX_CLOSINGS: usize = 4;
+pub const MAX_CLOSINGS: usize = 8;
 
 /// Every tree-solved island's nodes (breadth-first from the root, tree after tree).
 ///

@@ -4,7 +4,7 @@
 //! The elimination of [`tree`](super) closes one loop through the ground (a second immovable
 //! particle, see [`closure`](super::closure)); a third one used to take the whole island back
 //! to lines meeting at forks, coupled there by block Gauss–Seidel, which carries a load a stick
-//! or two per pass: random trees with heavy loads pinned at three to five particles stretched
+//! or two per pass: random trees with heavy loads pinned at three or four particles stretched
 //! beyond 100 % in about a third of the scenes at 8 × 1 (see `tests/direct.rs`).
 //!
 //! # The split
