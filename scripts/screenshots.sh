@@ -21,9 +21,9 @@ if ((${#need[@]})); then
 fi
 
 examples=("$@")
-[ ${#examples[@]} -gt 0 ] || examples=(cloth ragdoll structures shapes cloth_3d avian_2d avian_3d)
+[ ${#examples[@]} -gt 0 ] || examples=(cloth ragdoll structures shapes lanterns cloth_3d avian_2d avian_3d)
 # Frames before the screenshot, per example (llvmpipe draws ~30 frames/s).
-declare -A frames=([cloth]=150 [ragdoll]=85 [structures]=150 [shapes]=150 [cloth_3d]=150 [avian_2d]=120 [avian_3d]=120)
+declare -A frames=([cloth]=150 [ragdoll]=85 [structures]=150 [shapes]=150 [lanterns]=150 [cloth_3d]=150 [avian_2d]=120 [avian_3d]=120)
 
 flag=()
 [ "$PROFILE" = release ] && flag=(--release)

@@ -192,6 +192,140 @@ pub fn shapes(commands: &mut Commands) -> Vec<Composite> {
     shapes
 }
 
+/// Mass of a lantern in [`lanterns`], in link masses.
+pub const LANTERN_MASS: f32 = 100.0;
+
+/// Ropes hung from several posts, with heavy lanterns ([`LANTERN_MASS`] times a link) on strings:
+/// a rope across three posts with four lanterns between them, and a chandelier — a ring held by
+/// ropes from three posts, a lantern below it. Both are trees held by three pins, which the
+/// solver splits at its pins and closes once per pin (`solver::tree`): exact at any mass
+/// ratio. Returns `[rope, chandelier]`, each composite's first three particles its posts.
+///
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_verlet_physics::scenes;
+/// let mut world = World::new();
+/// assert_eq!(scenes::lanterns(&mut world.commands()).len(), 2);
+/// ```
+pub fn lanterns(commands: &mut Commands) -> Vec<Composite> {
+    commands.spawn((Name::new("Window"), window_bounds(0.0, 0.3)));
+    // The rope across three posts: two sagging spans, a lantern on a string from the lowest
+    // point of each span and from a quarter of the way along it.
+    let mut points = vec![
+        Vec3::new(-560.0, 200.0, 0.0),
+        Vec3::new(-150.0, 230.0, 0.0),
+        Vec3::new(250.0, 200.0, 0.0),
+    ];
+    let mut sticks = Vec::new();
+    let mut hangers = Vec::new();
+    for (from, to) in [(0, 1), (1, 2)] {
+        let span = sag(&mut points, &mut sticks, [from, to], 16, 0.15);
+        hangers.extend([span[3], span[7]]);
+    }
+    let lanterns: Vec<usize> = hangers
+        .into_iter()
+        .map(|top| hang(&mut points, &mut sticks, top, 5))
+        .collect();
+    let mut rope = StructureBuilder::new(points);
+    for (a, b) in sticks {
+        rope = rope.stick(a, b);
+    }
+    let rope = [0, 1, 2].into_iter().fold(rope, |rope, i| rope.pin(i));
+    let rope = rope.spawn(commands);
+    let rope = weigh_lanterns(commands, rope, &lanterns, "Lantern rope");
+    // The chandelier: a ring held by three sagging ropes from three posts, a lantern below.
+    let mut points = vec![
+        Vec3::new(350.0, 230.0, 0.0),
+        Vec3::new(600.0, 230.0, 0.0),
+        Vec3::new(470.0, 300.0, 0.0),
+        Vec3::new(470.0, 80.0, 0.0),
+    ];
+    let mut sticks = Vec::new();
+    for post in 0..3 {
+        sag(&mut points, &mut sticks, [post, 3], 8, 0.1);
+    }
+    let lantern = hang(&mut points, &mut sticks, 3, 6);
+    let mut chandelier = StructureBuilder::new(points);
+    for (a, b) in sticks {
+        chandelier = chandelier.stick(a, b);
+    }
+    let chandelier = [0, 1, 2].into_iter().fold(chandelier, |c, i| c.pin(i));
+    let chandelier = chandelier.spawn(commands);
+    let chandelier = weigh_lanterns(commands, chandelier, &[lantern], "Chandelier");
+    vec![rope, chandelier]
+}
+
+/// Appends the points of a rope of `links` (even) equal links sagging in a V from point
+/// `ends[0]` to point `ends[1]`, `slack` longer than the straight line, and its sticks; returns
+/// the indices of the rope's points from end to end.
+fn sag(
+    points: &mut Vec<Vec3>,
+    sticks: &mut Vec<(usize, usize)>,
+    ends: [usize; 2],
+    links: usize,
+    slack: f32,
+) -> Vec<usize> {
+    let [a, b] = ends.map(|i| points[i]);
+    let half = (b - a).length() / 2.0;
+    let depth = ((half * (1.0 + slack)).powi(2) - half * half).sqrt();
+    let across = (b - a).normalize_or_zero();
+    let down = Vec3::new(across.y, -across.x, 0.0) * if across.x >= 0.0 { 1.0 } else { -1.0 };
+    let apex = (a + b) / 2.0 + down * depth;
+    let mut path = vec![ends[0]];
+    for i in 1..links {
+        let t = i as f32 / links as f32 * 2.0;
+        let at = if t <= 1.0 {
+            a.lerp(apex, t)
+        } else {
+            apex.lerp(b, t - 1.0)
+        };
+        points.push(at);
+        path.push(points.len() - 1);
+    }
+    path.push(ends[1]);
+    sticks.extend(path.windows(2).map(|pair| (pair[0], pair[1])));
+    path
+}
+
+/// Appends a string of `links` 18 px links straight down from point `top` and its sticks;
+/// returns the index of its bottom point (the lantern).
+fn hang(
+    points: &mut Vec<Vec3>,
+    sticks: &mut Vec<(usize, usize)>,
+    top: usize,
+    links: usize,
+) -> usize {
+    let mut above = top;
+    for _ in 0..links {
+        points.push(points[above] - Vec3::Y * 18.0);
+        sticks.push((above, points.len() - 1));
+        above = points.len() - 1;
+    }
+    above
+}
+
+/// Makes the particles at `lanterns` (indices into `composite.particles`) [`LANTERN_MASS`]
+/// times heavier than the others and 12 px round, and names the composite.
+fn weigh_lanterns(
+    commands: &mut Commands,
+    composite: Composite,
+    lanterns: &[usize],
+    name: &'static str,
+) -> Composite {
+    commands.entity(composite.root).insert(Name::new(name));
+    for &i in lanterns {
+        let lantern = composite.particles[i];
+        commands
+            .entity(lantern)
+            .entry::<Particle>()
+            .and_modify(|mut particle| {
+                particle.inverse_mass /= LANTERN_MASS;
+                particle.radius = 12.0; // (drawn as a circle)
+            });
+    }
+    composite
+}
+
 /// verlet-js `tire`: a ring of `segments` particles around a centre, tread sticks between
 /// neighbours and to the particle 5 ahead, spokes to the centre, with verlet-js stiffnesses.
 pub fn tire(
