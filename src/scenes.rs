@@ -193,10 +193,14 @@ pub fn shapes(commands: &mut Commands) -> Vec<Composite> {
 }
 
 /// Mass of a lantern in [`lanterns`], in link masses.
+///
+/// ```
+/// assert!(bevy_verlet_physics::scenes::LANTERN_MASS > 10.0);
+/// ```
 pub const LANTERN_MASS: f32 = 100.0;
 
 /// Ropes hung from several posts, with heavy lanterns ([`LANTERN_MASS`] times a link) on strings:
-/// a rope across three posts with four lanterns between them, and a chandelier — a ring held by
+/// a rope across three posts with four lanterns between them, and a chandelier — a knot held by
 /// ropes from three posts, a lantern below it. Both are trees held by three pins, which the
 /// solver splits at its pins and closes once per pin (`solver::tree`): exact at any mass
 /// ratio. Returns `[rope, chandelier]`, each composite's first three particles its posts.
@@ -209,8 +213,8 @@ pub const LANTERN_MASS: f32 = 100.0;
 /// ```
 pub fn lanterns(commands: &mut Commands) -> Vec<Composite> {
     commands.spawn((Name::new("Window"), window_bounds(0.0, 0.3)));
-    // The rope across three posts: two sagging spans, a lantern on a string from the lowest
-    // point of each span and from a quarter of the way along it.
+    // The rope across three posts: two sagging spans, a lantern on a string from 3/16 and 7/16
+    // of the way along each.
     let mut points = vec![
         Vec3::new(-560.0, 200.0, 0.0),
         Vec3::new(-150.0, 230.0, 0.0),
@@ -233,7 +237,7 @@ pub fn lanterns(commands: &mut Commands) -> Vec<Composite> {
     let rope = [0, 1, 2].into_iter().fold(rope, |rope, i| rope.pin(i));
     let rope = rope.spawn(commands);
     let rope = weigh_lanterns(commands, rope, &lanterns, "Lantern rope");
-    // The chandelier: a ring held by three sagging ropes from three posts, a lantern below.
+    // The chandelier: a knot held by three sagging ropes from three posts, a lantern below.
     let mut points = vec![
         Vec3::new(350.0, 230.0, 0.0),
         Vec3::new(600.0, 230.0, 0.0),

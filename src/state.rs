@@ -352,8 +352,9 @@ impl VerletState {
         }
         let p = &self.solver.particles;
         let material_changed = p.inverse_mass[slot] != w || p.radius[slot] != radius;
-        // (A tree split at its immovable particles is rebuilt when one changes sides.)
-        if (p.inverse_mass[slot] <= 0.0) != (w <= 0.0) && self.tree_held_thrice(slot as u32) {
+        // (A tree solved whole is rooted, closed and split at its immovable particles: it is
+        // rebuilt when one changes sides, as when a pin is added.)
+        if (p.inverse_mass[slot] <= 0.0) != (w <= 0.0) && self.tree_solved(slot as u32) {
             self.dirty = true;
         }
         let render = [&self.render_previous[..], &self.render_current[..]];

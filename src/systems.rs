@@ -285,8 +285,14 @@ pub(crate) fn prepare(
         reconcile_pins(state, &inputs.pins, &particles.p0());
     }
     edit_constraints(state, &mut sticks.p1(), &mut angles.p1());
-    let rebuilt = state.dirty;
-    if rebuilt {
+    if !state.dirty {
+        for (entity, particle) in &particles.p1() {
+            state.gather_edit(entity, particle, step.gravity, dt, h);
+        }
+    }
+    // (Also where an edit just gathered takes one: a tree-solved island's particle made
+    // immovable or movable in place, see `gather_edit`.)
+    if state.dirty {
         let rebuild = RebuildInputs {
             gravity: step.gravity,
             dt,
@@ -299,13 +305,8 @@ pub(crate) fn prepare(
             &mut angles.p0(),
             inputs.entities,
         );
-    } else {
-        for (entity, particle) in &particles.p1() {
-            state.gather_edit(entity, particle, step.gravity, dt, h);
-        }
-        if state.overrides_changed {
-            state.refresh_island_settings(inputs.overrides.iter());
-        }
+    } else if state.overrides_changed {
+        state.refresh_island_settings(inputs.overrides.iter());
     }
     state.overrides_changed = false;
     set_pin_targets(state, &inputs.pins, &inputs.transforms);

@@ -460,11 +460,7 @@ impl VerletState {
         }
         // A tree solved whole is rooted at its pin, its other pins close loops or split it (see
         // `solver::tree`): another pin changes how.
-        let islands = &self.solver.islands;
-        let tree = islands
-            .of_particle(slot)
-            .is_some_and(|k| !islands.list[k].trees.is_empty());
-        if tree {
+        if self.tree_solved(slot) {
             return false;
         }
         let organized = self.solver.is_organized();
@@ -506,6 +502,14 @@ impl VerletState {
         self.shift_pin_ranges(slot, organized, false);
         self.solver.wake(slot);
         true
+    }
+
+    /// `true` when particle `slot`'s island is solved as trees (see `solver::tree`).
+    pub(crate) fn tree_solved(&self, slot: u32) -> bool {
+        let islands = &self.solver.islands;
+        islands
+            .of_particle(slot)
+            .is_some_and(|k| !islands.list[k].trees.is_empty())
     }
 
     /// `true` when particle `slot`'s island is solved as trees and holds three or more
