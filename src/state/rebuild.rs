@@ -514,15 +514,15 @@ impl VerletState {
 
     /// `true` when particle `slot`'s island is solved as trees and holds three or more
     /// immovable particles (pins or weightless particles): it is split at them (see
-    /// `solver::tree`), so making one of them movable, or another immovable, takes a rebuild.
+    /// `solver::tree`), so taking a pin away takes a rebuild.
     pub(crate) fn tree_held_thrice(&self, slot: u32) -> bool {
         let islands = &self.solver.islands;
-        islands.of_particle(slot).is_some_and(|k| {
-            let island = &islands.list[k];
-            let w = &self.solver.particles.inverse_mass;
-            let held = island.particles.clone().filter(|&p| w[p as usize] <= 0.0);
-            !island.trees.is_empty() && held.count() >= 3
-        })
+        let w = &self.solver.particles.inverse_mass;
+        self.tree_solved(slot)
+            && islands.of_particle(slot).is_some_and(|k| {
+                let held = islands.list[k].particles.clone();
+                held.filter(|&p| w[p as usize] <= 0.0).count() >= 3
+            })
     }
 
     /// Follows a pin added to (`grow`) or removed from particle `slot` in the islands' pin
