@@ -26,6 +26,8 @@
 //! with the intact curtain's, before and after the next topology rebuild (sleeping off).
 //! `--method sweep|lines|hierarchy` forces a [`SolveMethod`]; `--corners 1` hangs the cloth by its
 //! two top corners instead of its top row.
+//! `--line-substeps N` sets `VerletConfig::line_substeps` (ropes and chains, solved by lines,
+//! take N substeps; cloth keeps `--substeps`).
 //! `--threads N` runs the solver on N threads (`1`: serial; default: every core);
 //! `--tether-anchors N` sets `VerletConfig::tether_anchors` (scenes with tethers). `sleeping` lets
 //! `--count` ragdolls fall asleep, drops one more among them and compares its cost with that
@@ -51,6 +53,8 @@ struct Options {
     steps: usize,
     iterations: u32,
     substeps: u32,
+    /// `VerletConfig::line_substeps` (0: `None`).
+    line_substeps: u32,
     threads: Option<usize>,
     tether_anchors: u32,
     method: SolveMethod,
@@ -69,6 +73,7 @@ fn parse() -> Result<Options, String> {
         steps: 300,
         iterations: 6,
         substeps: 1,
+        line_substeps: 0,
         threads: None,
         tether_anchors: VerletConfig::default().tether_anchors,
         method: SolveMethod::default(),
@@ -102,6 +107,7 @@ fn parse() -> Result<Options, String> {
             "--steps" => o.steps = number,
             "--iterations" => o.iterations = number as u32,
             "--substeps" => o.substeps = number as u32,
+            "--line-substeps" => o.line_substeps = number as u32,
             "--threads" => o.threads = Some(number),
             "--tether-anchors" => o.tether_anchors = number as u32,
             "--corners" => o.corners = number != 0,
@@ -139,6 +145,7 @@ fn new_app(options: &Options) -> App {
             parallel: options.threads != Some(1),
             tether_anchors: options.tether_anchors,
             method: options.method,
+            line_substeps: (options.line_substeps > 0).then_some(options.line_substeps),
             ..VerletConfig::default()
         });
     app
@@ -377,7 +384,7 @@ fn main() {
         Err(message) => {
             eprintln!(
                 "{message}\nusage: bench [cloth|rope|ropes|ragdolls|sleeping|tearing|torn|avian] [--cols N --rows N | --links N | --count N | --pebbles N] \
-                 [--steps N] [--iterations N] [--substeps N] [--threads N] [--method auto|sweep|lines|hierarchy] [--corners 1]"
+                 [--steps N] [--iterations N] [--substeps N] [--line-substeps N] [--threads N] [--method auto|sweep|lines|hierarchy] [--corners 1]"
             );
             std::process::exit(2);
         }
@@ -473,6 +480,7 @@ fn main() {
         sleep: None,
         shake: true,
         symmetric_mass_ratio: world.resource::<VerletConfig>().symmetric_mass_ratio as f64,
+        line_substeps: world.resource::<VerletConfig>().line_substeps,
     };
     let pool = ComputeTaskPool::get();
     let executor: &dyn Executor = if options.threads == Some(1) {

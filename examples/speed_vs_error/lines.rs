@@ -89,17 +89,24 @@ pub fn section(results: &Results) -> String {
         ("200 links swinging, max link strain", &results.swinging[1]),
         ("cloth 50 × 50, max strain", &results.cloth),
     ];
-    out.push_str("| metric | 8 × 1 sweep | 8 × 1 lines | cost ratio |\n|---|---:|---:|---:|\n");
+    // (`line_substeps: Some(2)`: the crate's sweeps stay at 8 substeps, its lines take 2.)
+    let two = Setting::lines(2);
+    out.push_str(
+        "| metric | 8 × 1 sweep | 8 × 1 lines | cost ratio | 2 × 1 lines (`line_substeps: Some(2)`) | cost ratio |\n|---|---:|---:|---:|---:|---:|\n",
+    );
     for (name, result) in rows {
-        let ratio = match (result.get(&sweep), result.get(&lines)) {
+        let ratio = |setting: &Setting| match (result.get(&sweep), result.get(setting)) {
             (Some(a), Some(b)) => format!("{}×", significant(step_cost(b) / step_cost(a))),
             _ => "n/a".into(),
         };
         let _ = writeln!(
             out,
-            "| {name} | {} | {} | {ratio} |",
+            "| {name} | {} | {} | {} | {} | {} |",
             shown(result, sweep),
-            shown(result, lines)
+            shown(result, lines),
+            ratio(&lines),
+            shown(result, two),
+            ratio(&two),
         );
     }
     out

@@ -140,7 +140,28 @@ impl Island {
     /// assert_eq!(island.config(&StepConfig::default()).substeps, 2);
     /// ```
     pub fn config(&self, step: &super::StepConfig) -> super::StepConfig {
-        configured(step, self.settings)
+        configured(step, self.own_settings(step))
+    }
+
+    /// Its substeps and iterations where they are not the step's: its [`Island::settings`], else
+    /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) if it is solved by lines.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Island, Method, StepConfig};
+    /// let step = StepConfig { line_substeps: Some(2), ..StepConfig::default() };
+    /// let rope = Island { method: Method::Lines, ..Island::default() };
+    /// assert_eq!(rope.own_settings(&step).map(|s| s.substeps), Some(2));
+    /// let cloth = Island { method: Method::Sweep, ..Island::default() };
+    /// assert_eq!(cloth.own_settings(&step), None);
+    /// ```
+    pub fn own_settings(&self, step: &super::StepConfig) -> Option<IslandSettings> {
+        self.settings.or_else(|| match step.line_substeps {
+            Some(substeps) if self.method == Method::Lines => Some(IslandSettings {
+                substeps,
+                iterations: step.iterations,
+            }),
+            _ => None,
+        })
     }
 }
 

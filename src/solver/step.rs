@@ -233,7 +233,7 @@ impl Solver {
                 && !island.sticks.is_empty()
                 && mass_ratio(&self.particles.inverse_mass[range(&island.particles)])
                     > config.symmetric_mass_ratio;
-            let own = island.settings.map(|_| island.config(config));
+            let own = island.own_settings(config).map(|_| island.config(config));
             count = count.max(own.map_or(config.substeps, |c| c.substeps));
             let h = own.map_or(global, |c| c.substep());
             let from = match island.state_substep {
@@ -1020,10 +1020,10 @@ fn due<'a>(
     // once per island — its division and `exp` were most of the cost of walking the islands.)
     let shared = global.for_config(super::islands::configured(&global.config, None));
     islands.iter().filter_map(move |island| {
-        let substep = match island.settings {
+        let substep = match island.own_settings(&global.config) {
             _ if island.asleep => None,
             None => shared,
-            Some(_) => global.for_config(island.config(&global.config)),
+            Some(own) => global.for_config(super::islands::configured(&global.config, Some(own))),
         };
         substep.map(|s| (island, global.paired_if(island.symmetric, s)))
     })

@@ -167,6 +167,8 @@ impl Setting {
             // (the crate sweeps islands whose masses differ more than 8× forward and back:
             // `solver::symmetric`; the heavy-tip and loaded soft chains here would be).
             symmetric_mass_ratio: f64::INFINITY,
+            // (Each scene is one island: a setting's substeps are its own.)
+            line_substeps: None,
         }
     }
 }
