@@ -62,15 +62,18 @@ pub struct VerletConfig {
     /// `f32::INFINITY`: never; below 1 (`0`): every swept island, equal masses too. NaN is
     /// replaced by the default, with a warning.
     pub symmetric_mass_ratio: f32,
-    /// Substeps of islands solved by lines — ropes, chains, pendulums, trees, which
-    /// [`SolveMethod::Auto`] solves exactly — that carry no [`IslandOverride`] of their own;
-    /// `None` (the default): [`VerletConfig::substeps`], as for every other island; `Some(0)` is
-    /// taken as 1. A line's solve is exact at any substep count, so fewer substeps cost a rope
-    /// no stretch, only accuracy in time: at `Some(2)` the report's chains stay within 10⁻⁹ of
-    /// their lengths, a 120° pendulum's period is off by −0.008 % and a double pendulum keeps
-    /// 99.8 % of its energy over 60 s, at about a quarter of the time of 8 substeps (a 1000:1
-    /// chain whipping from horizontal: half; see the crate README, "Solvers"). Cloth,
-    /// ragdolls and structures keep `substeps`.
+    /// Substeps of ropes, chains, pendulums and trees — tree-shaped islands, which
+    /// [`SolveMethod::Auto`] solves exactly by lines — that carry no [`IslandOverride`] of
+    /// their own; `None` (the default): [`VerletConfig::substeps`], as for every other island;
+    /// `Some(0)` is taken as 1. Their solve is exact at any substep count, so fewer substeps cost
+    /// a rope no stretch, only accuracy in time: at `Some(2)` the report's chains stay within
+    /// 10⁻⁹ of their lengths, a 120° pendulum's period is off by −0.008 % and a double pendulum
+    /// loses 0.2 % of its energy over 60 s, at 0.28–0.42× the time of 8 swept substeps (the
+    /// 200-link chain swinging: 1.34×; the 1000:1 chain whipping from horizontal: 2.00×, 4.30×
+    /// at 8; see the crate README, "Configuration"). Cloth, ragdolls and structures keep
+    /// `substeps`. In a step where a rope is hit hard — a stick would stretch by more than its
+    /// length within one of its substeps, or a pin jumps farther than its shortest stick — it
+    /// takes `substeps` (`solver::line_substeps`).
     ///
     /// ```
     /// use bevy::prelude::*;

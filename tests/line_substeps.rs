@@ -132,7 +132,7 @@ fn an_island_override_wins_over_line_substeps() {
 
 /// The report's swinging 1000:1 chain (100 links, 1 m, from horizontal, 5 s) at 2 substeps:
 /// within 10⁻⁶ of its lengths throughout, as at 8, in fewer Newton passes (measured: 3417
-/// against 7628 at 8, 0.45×).
+/// against 7628 at 8, 0.45×), and never hit hard enough to take 8 in a step.
 #[test]
 fn a_whipping_chain_at_two_substeps_stays_unstretched_in_fewer_passes() {
     let run = |config: &StepConfig| {
@@ -148,6 +148,12 @@ fn a_whipping_chain_at_two_substeps_stays_unstretched_in_fewer_passes() {
     };
     let (at_two, passes_two) = run(&two());
     let (at_eight, passes_eight) = run(&StepConfig::default());
+    // (No step of it is a hit: the same passes as 2 substeps throughout.)
+    let throughout = StepConfig {
+        substeps: 2,
+        ..StepConfig::default()
+    };
+    assert_eq!(run(&throughout).1, passes_two);
     println!(
         "1000:1 chain: 2 substeps {at_two:.2e} in {passes_two} passes, 8: {at_eight:.2e} in {passes_eight}"
     );
@@ -178,6 +184,7 @@ fn a_double_pendulum_at_two_substeps_keeps_its_energy() {
         potential + p.kinetic_energy(h)
     };
     solver.step(&config);
+    assert_eq!(solver.state_substep_of(1), Some(h));
     let start = energy(&solver);
     let (mut lowest, mut highest) = (start, start);
     for _ in 0..64 * 60 {
@@ -195,4 +202,41 @@ fn a_double_pendulum_at_two_substeps_keeps_its_energy() {
     assert!(lost < 0.01, "lost {lost}");
     assert!(rise < 0.01, "rise {rise}");
     assert!(max_strain(&solver) < 1e-6);
+}
+
+/// A hit takes the step's substeps for that step only: a pendulum (1 m rod) kicked outwards at
+/// 200 m/s (its rod would stretch by 1.56 m in a 1/128 s substep) takes 8 substeps in that step
+/// and 2 again in the next, the rod having taken the kick out; a pin jumped 3 m in one step
+/// (1.5 m per substep against the 1 m rod) as well, and its rod stays on its length.
+#[test]
+fn a_hit_takes_the_steps_substeps_for_that_step_only() {
+    let mut solver = Solver::default();
+    let pin = solver.add_particle(DVec3::ZERO, 0.0);
+    solver.pin(pin, DVec3::ZERO);
+    let bob = solver.add_particle(DVec3::X, 1.0);
+    let kind = StickKind::Equal;
+    solver
+        .sticks
+        .push([pin, bob], 1.0, 0.0, kind, f64::INFINITY, 0);
+    solver.organize();
+    let config = two();
+    let substeps =
+        |solver: &Solver| (config.timestep / solver.state_substep_of(bob).unwrap()).round();
+    solver.step(&config);
+    assert_eq!(substeps(&solver), 2.0);
+    let h = config.timestep / 2.0;
+    solver.particles.previous[bob as usize] -= DVec3::X * 200.0 * h;
+    solver.step(&config);
+    assert_eq!(substeps(&solver), 8.0);
+    solver.step(&config);
+    assert_eq!(substeps(&solver), 2.0);
+    let to = DVec3::new(0.0, 3.0, 0.0);
+    solver.pins.set_target(0, to);
+    solver.step(&config);
+    assert_eq!(substeps(&solver), 8.0);
+    for _ in 0..8 {
+        solver.step(&config);
+    }
+    assert_eq!(substeps(&solver), 2.0);
+    assert!(max_strain(&solver) < 1e-9, "strain {}", max_strain(&solver));
 }

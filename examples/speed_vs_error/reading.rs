@@ -169,12 +169,16 @@ pub fn summary(results: &Results, budgets: &[u32]) -> String {
         .filter(|(_, r)| on_front(r, default))
         .map(|(name, _)| name)
         .collect();
+    let which = if fronts.is_empty() {
+        String::new()
+    } else {
+        format!(": {}", fronts.join(", "))
+    };
     let _ = writeln!(
         out,
-        "* 8 × 1 is on the wall-time Pareto front (untethered, all families) of {} of {} scenes: {}.",
+        "* 8 × 1 is on the wall-time Pareto front (untethered, all families) of {} of {} scenes{which}.",
         fronts.len(),
         judged(results).len(),
-        fronts.join(", ")
     );
     out.push_str("\nPass lines at the presets and their neighbours (✓ = met):\n\n");
     out.push_str("| pass line |");

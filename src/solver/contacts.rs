@@ -142,7 +142,7 @@ pub struct ContactParticle<'a> {
     /// `|g|·h²` of its substep (for the resting speed).
     pub gravity_step: f64,
     /// The bodies' substep over this particle's, `h_body/h` (1 when its island takes every
-    /// substep, less when an `IslandOverride` gives it fewer): a body turns a positional
+    /// substep, less when an `IslandOverride` or `line_substeps` gives it fewer): a body turns a positional
     /// correction into velocity over its own substep, so the particle's penetration is split as
     /// if the body were that much heavier (its velocity impulse is not), and its surface moves
     /// that much farther per particle substep; momentum and energy are kept.

@@ -81,7 +81,8 @@ pub fn consistent_previous(position: DVec3, velocity: DVec3, acceleration: DVec3
 /// placed at rest (`x* = x`, as [`Solver::add_particle`](super::Solver::add_particle), pins
 /// and sleep leave it) stays so. A
 /// Verlet state holds the velocity times the substep, so without this a particle whose island
-/// changes its substep count (an `IslandOverride`, a new `VerletConfig::substeps`) would change
+/// changes its substep count (an `IslandOverride`, a new `VerletConfig::substeps`, `line_substeps`
+/// or a hit that suspends it) would change
 /// speed by their ratio.
 ///
 /// ```

@@ -94,7 +94,8 @@ pub struct Island {
     pub pins: Range<u32>,
     /// Tethers.
     pub tethers: Range<u32>,
-    /// Overrides of the step's substeps and iterations.
+    /// Overrides of the step's substeps and iterations (what it takes is
+    /// [`Island::own_settings`]: these, else `line_substeps` where that applies).
     pub settings: Option<IslandSettings>,
     /// How its sticks are solved (resolved by [`Solver::organize`]: never [`Method::Auto`]
     /// there; an island left at `Auto` is swept).
@@ -126,10 +127,16 @@ pub struct Island {
     /// substep), `0` for [`Solver::verlet_substep`](super::Solver::verlet_substep) (a new
     /// island); see [`resubstep`](super::resubstep).
     pub state_substep: f64,
+    /// Set by [`Solver::begin_step`](super::Solver::begin_step) for an awake island that could
+    /// take [`StepConfig::line_substeps`](super::StepConfig::line_substeps): a stick of it would
+    /// stretch beyond [`HIT_ABOVE`](super::line_substeps::HIT_ABOVE) in one such substep, so it
+    /// takes the step's substeps in this step (see [`line_substeps`](super::line_substeps)).
+    pub hit_hard: bool,
 }
 
 impl Island {
-    /// The step's settings with this island's overrides applied (substeps and iterations ≥ 1).
+    /// The step's settings with this island's own applied ([`Island::own_settings`]: its
+    /// overrides, or `line_substeps`; substeps and iterations ≥ 1).
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Island, IslandSettings, StepConfig};
@@ -144,24 +151,47 @@ impl Island {
     }
 
     /// Its substeps and iterations where they are not the step's: its [`Island::settings`], else
-    /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) if it is solved by lines.
+    /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) (at least 1) if it
+    /// [`Island::takes_line_substeps`] and is not [`Island::hit_hard`] in this step.
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Island, Method, StepConfig};
     /// let step = StepConfig { line_substeps: Some(2), ..StepConfig::default() };
-    /// let rope = Island { method: Method::Lines, ..Island::default() };
+    /// // Two particles, one stick: a pendulum.
+    /// let rope = Island { method: Method::Lines, particles: 0..2, sticks: 0..1, ..Island::default() };
     /// assert_eq!(rope.own_settings(&step).map(|s| s.substeps), Some(2));
-    /// let cloth = Island { method: Method::Sweep, ..Island::default() };
+    /// let cloth = Island { method: Method::Sweep, ..rope.clone() };
     /// assert_eq!(cloth.own_settings(&step), None);
     /// ```
     pub fn own_settings(&self, step: &super::StepConfig) -> Option<IslandSettings> {
         self.settings.or_else(|| match step.line_substeps {
-            Some(substeps) if self.method == Method::Lines => Some(IslandSettings {
-                substeps,
-                iterations: step.iterations,
-            }),
+            Some(substeps) if self.takes_line_substeps() && !self.hit_hard => {
+                Some(IslandSettings {
+                    substeps: substeps.max(1),
+                    iterations: step.iterations,
+                })
+            }
             _ => None,
         })
+    }
+
+    /// Whether [`StepConfig::line_substeps`](super::StepConfig::line_substeps) applies to it: it
+    /// is solved by lines and shaped as a tree (one stick fewer than particles, no angle
+    /// constraint), so that its solve is exact whatever the substep — chains, ropes, pendulums
+    /// and trees under [`Method::Auto`]; not a cloth or a ragdoll put on lines.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Island, Method};
+    /// let chain = Island { method: Method::Lines, particles: 0..11, sticks: 0..10, ..Island::default() };
+    /// assert!(chain.takes_line_substeps());
+    /// let cloth = Island { sticks: 0..180, particles: 0..100, ..chain.clone() };
+    /// assert!(!cloth.takes_line_substeps());
+    /// ```
+    pub fn takes_line_substeps(&self) -> bool {
+        let count = |r: &Range<u32>| r.end.saturating_sub(r.start);
+        self.method == Method::Lines
+            && self.angles.is_empty()
+            && count(&self.sticks) + 1 == count(&self.particles)
     }
 }
 
@@ -748,6 +778,7 @@ impl Solver {
             symmetric: false,
             calm_time,
             state_substep: 0.0,
+            hit_hard: false,
         });
         islands.lines.clear();
         islands.hierarchies.clear();

@@ -82,6 +82,7 @@ pub mod hierarchy;
 mod integrate;
 pub mod islands;
 mod kkt;
+pub mod line_substeps;
 pub mod lines;
 pub mod lone_stick;
 pub mod parallel;
@@ -150,18 +151,29 @@ pub struct StepConfig {
     /// [`SYMMETRIC_MASS_RATIO`] (8); `f64::INFINITY` (or NaN): never; below 1 (`0`): every swept
     /// island, equal masses too.
     pub symmetric_mass_ratio: f64,
-    /// Substeps of islands solved by lines (and trees: [`Method::Lines`], also where
-    /// [`Method::Auto`] picked it) that have no [`IslandSettings`] of their own; `None`: the
-    /// step's `substeps`, as for every other island. Lines are exact at any substep count, so
-    /// fewer substeps cost them no stretch, only accuracy in time (see [`direct`]): the report's
-    /// chains, pendulums and double pendulum meet Solver 2's goals at 2, at a quarter of the
-    /// time of 8 (the crate README, "Solvers"). Iterations stay the step's.
+    /// Substeps of tree-shaped islands solved by lines — chains, ropes, pendulums and trees
+    /// under [`Method::Auto`] ([`Island::takes_line_substeps`]) — that have no
+    /// [`IslandSettings`] of their own; `None`: the step's `substeps`, as for every other
+    /// island; `Some(0)` is taken as 1. Their solve is exact at any substep count, so fewer
+    /// substeps cost them no stretch, only accuracy in time; in a step where they are hit hard
+    /// they take `substeps` ([`line_substeps`]). At 2 the report's pendulums, double pendulum
+    /// and hanging chain take a quarter of the time of 8 substeps of lines, the swinging chains
+    /// about half (the crate README, "Configuration"). Iterations stay the step's.
     ///
     /// ```
-    /// use bevy_verlet_physics::solver::StepConfig;
+    /// use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// let pin = solver.add_particle(DVec3::ZERO, 0.0);
+    /// solver.pin(pin, DVec3::ZERO);
+    /// let bob = solver.add_particle(DVec3::X, 1.0);
+    /// solver.sticks.push([pin, bob], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// solver.organize();
     /// // Cloth and ragdolls swept at 8 substeps, ropes and chains solved exactly at 2.
     /// let config = StepConfig { line_substeps: Some(2), ..StepConfig::default() };
-    /// assert_eq!(config.substeps, 8);
+    /// assert_eq!(solver.begin_step(&config), 2); // nothing here takes 8
+    /// solver.step(&config);
+    /// assert_eq!(solver.state_substep_of(bob), Some(config.timestep / 2.0));
     /// ```
     pub line_substeps: Option<u32>,
 }

@@ -17,6 +17,7 @@ use super::colliders::constrain_range;
 use super::direct::{LineRef, LineScratch, LineSolve, LineViews};
 use super::hierarchy::AFTER_SWEEP_FROM_LEVEL;
 use super::integrate::{integrate_range, resubstep};
+use super::line_substeps::hit_hard;
 use super::lines::Method;
 use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
@@ -27,7 +28,7 @@ use super::sticks::{SweepOrder, relax_stick_range};
 use super::symmetric::{in_pairs, mass_ratio, nth_in, order_of};
 use super::tethers::relax_tether_range;
 use super::tree::TreeSolve;
-use super::{Island, Solver, StepConfig, Substep, tear};
+use super::{Island, IslandSettings, Solver, StepConfig, Substep, tear};
 use glam::DVec3;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -233,6 +234,19 @@ impl Solver {
                 && !island.sticks.is_empty()
                 && mass_ratio(&self.particles.inverse_mass[range(&island.particles)])
                     > config.symmetric_mass_ratio;
+            island.hit_hard = match config.line_substeps {
+                Some(n) if n < config.substeps && island.takes_line_substeps() => {
+                    let h_state = match island.state_substep {
+                        from if from > 0.0 => from,
+                        _ => unset,
+                    };
+                    let h_line = config.timestep / n.max(1) as f64;
+                    let ranges = (range(&island.sticks), range(&island.pins));
+                    let arrays = (&self.particles, &self.sticks, &self.pins);
+                    hit_hard(arrays, ranges, (h_state, h_line, config.timestep))
+                }
+                _ => false,
+            };
             let own = island.own_settings(config).map(|_| island.config(config));
             count = count.max(own.map_or(config.substeps, |c| c.substeps));
             let h = own.map_or(global, |c| c.substep());
@@ -1018,12 +1032,20 @@ fn due<'a>(
 ) -> impl Iterator<Item = (&'a Island, Substep)> + 'a {
     // (Islands without settings of their own all take the step's substep: computed once, not
     // once per island — its division and `exp` were most of the cost of walking the islands.)
-    let shared = global.for_config(super::islands::configured(&global.config, None));
+    // (So are those of islands that take `line_substeps`.)
+    let configured = |own| global.for_config(super::islands::configured(&global.config, own));
+    let shared = configured(None);
+    let line_own = global.config.line_substeps.map(|substeps| IslandSettings {
+        substeps: substeps.max(1),
+        iterations: global.config.iterations,
+    });
+    let lines = line_own.and_then(|own| configured(Some(own)));
     islands.iter().filter_map(move |island| {
         let substep = match island.own_settings(&global.config) {
             _ if island.asleep => None,
             None => shared,
-            Some(own) => global.for_config(super::islands::configured(&global.config, Some(own))),
+            Some(own) if Some(own) == line_own => lines,
+            Some(own) => configured(Some(own)),
         };
         substep.map(|s| (island, global.paired_if(island.symmetric, s)))
     })
