@@ -71,9 +71,9 @@ pub struct VerletConfig {
     /// loses 0.2 % of its energy over 60 s, at 0.28–0.42× the time of 8 swept substeps (the
     /// 200-link chain swinging: 1.34×; the 1000:1 chain whipping from horizontal: 2.00×, 4.30×
     /// at 8; see the crate README, "Configuration"). Cloth, ragdolls and structures keep
-    /// `substeps`. In a step where a rope is hit hard — a stick would stretch by more than its
-    /// length within one of its substeps, or a pin jumps farther than its shortest stick — it
-    /// takes `substeps` (`solver::line_substeps`).
+    /// `substeps`. In a step where a rope is hit hard — a stick, its ends moving on at their
+    /// velocities (a pinned end towards its target), would stretch by more than its length
+    /// within one of its substeps — it takes `substeps` (`solver::line_substeps`).
     ///
     /// ```
     /// use bevy::prelude::*;

@@ -7,10 +7,11 @@
 //! What fewer substeps do cost is robustness under hits: a load kicked hard moves many link
 //! lengths in one long substep, and the Newton passes then start far from the constraints. So
 //! an island takes the shorter count only in steps where no rigid stick of it, its ends moving
-//! on at their velocities for one such substep, would stretch or shrink by more than
-//! [`HIT_ABOVE`] times its length, and none of its pins moves farther than that times its
-//! shortest stick in one ([`hit_hard`]); otherwise it takes the step's count, with its Verlet
-//! state re-expressed for it ([`resubstep`](super::resubstep), velocities kept).
+//! on at their velocities — a pinned end towards its pin's target — for one such substep, would
+//! stretch or shrink by more than [`HIT_ABOVE`] times its length ([`hit_hard`]); otherwise it
+//! takes the step's count, with its Verlet state re-expressed for it
+//! ([`resubstep`](super::resubstep), velocities kept). A rope carried along by its pin moves
+//! with it and is not hit; a pin jerked away from its rope is.
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};
@@ -32,6 +33,7 @@
 //! ```
 
 use super::{Particles, Pins, StickKind, Sticks};
+use glam::DVec3;
 use std::ops::Range;
 
 /// The largest relative stretch (or shrink) a rigid stick may reach in one substep of
@@ -52,10 +54,9 @@ pub const HIT_ABOVE: f64 = 1.0;
 
 /// Whether a rigid stick in `sticks` would stretch or shrink by more than [`HIT_ABOVE`] times
 /// its length in a substep of `h_line`, its ends moving on at their velocities `(x − x*)/h_state`
-/// (one-sided sticks only in the direction they hold; springs and torn sticks left out) — or a
-/// pin in `pins` would move by more than that times the island's shortest rigid stick in such a
-/// substep (pins move from where their particles are to their targets over the step of length
-/// `step`).
+/// — an immovable end held by one of `pins` towards its target, which it reaches over the step
+/// of length `step` (one-sided sticks only in the direction they hold; springs and torn sticks
+/// left out).
 pub(crate) fn hit_hard(
     (particles, sticks, pins): (&Particles, &Sticks, &Pins),
     (stick_range, pin_range): (Range<usize>, Range<usize>),
@@ -63,17 +64,23 @@ pub(crate) fn hit_hard(
 ) -> bool {
     let ahead = h_line / h_state;
     let (x, previous) = (&particles.position, &particles.previous);
-    let mut shortest = f64::INFINITY;
-    let stretched = stick_range.into_iter().any(|i| {
+    // A particle's move per substep of `h_state`: a pinned one's towards its target.
+    let moved = |p: usize| {
+        if particles.inverse_mass[p] > 0.0 {
+            return x[p] - previous[p];
+        }
+        let pin = pin_range.clone().find(|&k| pins.particle[k] as usize == p);
+        pin.map_or(DVec3::ZERO, |k| (pins.to[k] - x[p]) * (h_state / step))
+    };
+    stick_range.into_iter().any(|i| {
         let kind = sticks.kind[i];
         if sticks.compliance[i] != 0.0 || kind == StickKind::Torn {
             return false;
         }
         let rest = sticks.rest_length[i].max(1e-12);
-        shortest = shortest.min(rest);
         let [a, b] = sticks.ends()[i].map(|p| p as usize);
-        let moved = (x[b] - previous[b]) - (x[a] - previous[a]);
-        let strain = (x[b] - x[a] + moved * ahead).length() / rest - 1.0;
+        let relative = moved(b) - moved(a);
+        let strain = (x[b] - x[a] + relative * ahead).length() / rest - 1.0;
         let violation = match kind {
             StickKind::AtMost => strain,
             StickKind::AtLeast => -strain,
@@ -81,10 +88,5 @@ pub(crate) fn hit_hard(
         };
         // (A NaN counts as a hit: the step's own count, as without `line_substeps`.)
         violation > HIT_ABOVE || violation.is_nan()
-    });
-    stretched
-        || pin_range.into_iter().any(|k| {
-            let travel = (pins.to[k] - x[pins.particle[k] as usize]).length() * h_line / step;
-            travel > HIT_ABOVE * shortest || travel.is_nan()
-        })
+    })
 }
