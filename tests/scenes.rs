@@ -232,10 +232,18 @@ fn cloth_3d_drapes_over_the_sphere_without_passing_through() {
 /// closed twice. Asserted over 5 s of swinging from where they were spawned: the posts stay,
 /// nothing is non-finite, and every stick stays within 10⁻⁴ of its length (f32 components;
 /// measured 1.8·10⁻⁶). Swept (`SolveMethod::Sweep`, forward and back as their masses differ
-/// 100×): 9.2 %.
+/// 100×): 9.2 %. The same with `VerletConfig::line_substeps: Some(2)` (the example's L key):
+/// both take 2 substeps, measured 1.6·10⁻⁶.
 #[test]
 fn lanterns_hang_from_their_posts_unstretched() {
+    for line_substeps in [None, Some(2)] {
+        lanterns_hang_unstretched(line_substeps);
+    }
+}
+
+fn lanterns_hang_unstretched(line_substeps: Option<u32>) {
     let mut app = pixel_app();
+    app.world_mut().resource_mut::<VerletConfig>().line_substeps = line_substeps;
     let scene = spawn(&mut app, scenes::lanterns);
     let posts: Vec<Entity> = scene
         .iter()
@@ -262,12 +270,21 @@ fn lanterns_hang_from_their_posts_unstretched() {
         (1, vec![1]),
         "one part, closed twice"
     );
+    let substeps = |app: &App, entity: Entity| {
+        let state = app.world().resource::<VerletState>();
+        let h = state.solver.state_substep_of(state.slot(entity).unwrap());
+        (1.0 / (64.0 * h.unwrap())).round() as u32
+    };
     let mut strain: f32 = 0.0;
     for _ in 0..64 * 5 {
         step(&mut app, 1);
         strain = strain.max(max_strain(&mut app));
+        for composite in &scene {
+            let expected = line_substeps.unwrap_or(8);
+            assert_eq!(substeps(&app, composite.particles[3]), expected);
+        }
     }
-    println!("lanterns: largest strain {strain:.1e}");
+    println!("lanterns, line_substeps {line_substeps:?}: largest strain {strain:.1e}");
     assert!(all_finite(&mut app));
     assert_eq!(positions(&app, &posts), pinned, "a post moved");
     assert!(strain < 1e-4, "largest strain {strain}");

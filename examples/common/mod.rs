@@ -111,7 +111,7 @@ fn update_overlay(
         return;
     };
     text.0 = format!(
-        "particles {}  sticks {}  islands {} ({} asleep, {} symmetric)  torn {}  solver {:.0} us/step  {} substeps x {} iterations  gravity {}{}",
+        "particles {}  sticks {}  islands {} ({} asleep, {} symmetric)  torn {}  solver {:.0} us/step  {} substeps{} x {} iterations  gravity {}{}",
         stats.particles,
         stats.sticks,
         stats.islands,
@@ -120,6 +120,9 @@ fn update_overlay(
         torn.0,
         stats.step_micros,
         config.substeps,
+        config
+            .line_substeps
+            .map_or(String::new(), |n| format!(" (ropes {n})")),
         config.iterations,
         if gravity.0 == Vec3::ZERO { "off" } else { "on" },
         if config.paused { "  [paused]" } else { "" },
