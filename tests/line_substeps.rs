@@ -9,15 +9,25 @@ use glam::DVec3;
 const G: f64 = 9.81;
 
 /// A chain of `links` rigid links, `length` long, pinned at the origin and laid out along `+X`,
-/// its tip `tip_ratio` times as heavy as a link (1 kg).
+/// its tip `tip_ratio` times as heavy as a link (1 kg). Returns its tip.
 fn chain(solver: &mut Solver, links: usize, length: f64, tip_ratio: f64) -> u32 {
+    chain_along(solver, (links, length), tip_ratio, DVec3::X)
+}
+
+/// [`chain`] laid out along `direction` (a unit vector).
+fn chain_along(
+    solver: &mut Solver,
+    (links, length): (usize, f64),
+    tip_ratio: f64,
+    direction: DVec3,
+) -> u32 {
     let link = length / links as f64;
     let pin = solver.add_particle(DVec3::ZERO, 0.0);
     solver.pin(pin, DVec3::ZERO);
     let mut previous = pin;
     for i in 1..=links {
         let w = if i == links { 1.0 / tip_ratio } else { 1.0 };
-        let p = solver.add_particle(DVec3::X * (link * i as f64), w);
+        let p = solver.add_particle(direction * (link * i as f64), w);
         let kind = StickKind::Equal;
         solver
             .sticks
@@ -212,13 +222,7 @@ fn a_double_pendulum_at_two_substeps_keeps_its_energy() {
 #[test]
 fn a_hit_takes_the_steps_substeps_for_that_step_only() {
     let mut solver = Solver::default();
-    let pin = solver.add_particle(DVec3::ZERO, 0.0);
-    solver.pin(pin, DVec3::ZERO);
-    let bob = solver.add_particle(DVec3::X, 1.0);
-    let kind = StickKind::Equal;
-    solver
-        .sticks
-        .push([pin, bob], 1.0, 0.0, kind, f64::INFINITY, 0);
+    let bob = chain(&mut solver, 1, 1.0, 1.0);
     solver.organize();
     let config = two();
     let substeps =
@@ -249,17 +253,7 @@ fn a_hit_takes_the_steps_substeps_for_that_step_only() {
 #[test]
 fn a_rope_carried_along_by_its_pin_keeps_its_line_substeps() {
     let mut solver = Solver::default();
-    let pin = solver.add_particle(DVec3::ZERO, 0.0);
-    solver.pin(pin, DVec3::ZERO);
-    let mut previous = pin;
-    for i in 1..=20 {
-        let p = solver.add_particle(DVec3::new(0.0, -0.05 * i as f64, 0.0), 1.0);
-        let kind = StickKind::Equal;
-        solver
-            .sticks
-            .push([previous, p], 0.05, 0.0, kind, f64::INFINITY, 0);
-        previous = p;
-    }
+    let tip = chain_along(&mut solver, (20, 1.0), 1.0, DVec3::NEG_Y);
     solver.organize();
     let config = two();
     let mut full_steps = 0;
@@ -268,7 +262,7 @@ fn a_rope_carried_along_by_its_pin_keeps_its_line_substeps() {
         let to = DVec3::X * 10.0 * config.timestep * step as f64;
         solver.pins.set_target(0, to);
         solver.step(&config);
-        if solver.state_substep_of(previous) != Some(config.timestep / 2.0) {
+        if solver.state_substep_of(tip) != Some(config.timestep / 2.0) {
             full_steps += 1;
         }
         worst = worst.max(max_strain(&solver));
