@@ -73,7 +73,8 @@ pub struct VerletConfig {
     /// at 8; see the crate README, "Configuration"). Cloth, ragdolls and structures keep
     /// `substeps`. In a step where a rope is hit hard — a stick, its ends moving on at their
     /// velocities (a pinned end towards its target), would stretch by more than its length
-    /// within one of its substeps — it takes `substeps` (`solver::line_substeps`).
+    /// within one of its substeps, or have its ends cross — it takes `substeps`
+    /// (`solver::line_substeps`).
     ///
     /// ```
     /// use bevy::prelude::*;

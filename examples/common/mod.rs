@@ -122,7 +122,7 @@ fn update_overlay(
         config.substeps,
         config
             .line_substeps
-            .map_or(String::new(), |n| format!(" (ropes {n})")),
+            .map_or(String::new(), |n| format!(" (ropes {})", n.max(1))),
         config.iterations,
         if gravity.0 == Vec3::ZERO { "off" } else { "on" },
         if config.paused { "  [paused]" } else { "" },

@@ -176,9 +176,10 @@ impl Island {
     }
 
     /// Whether [`StepConfig::line_substeps`](super::StepConfig::line_substeps) applies to it: it
-    /// is solved by lines and shaped as a tree (one stick fewer than particles, no angle
-    /// constraint), so that its solve is exact whatever the substep — chains, ropes, pendulums
-    /// and trees under [`Method::Auto`]; not a cloth or a ragdoll put on lines.
+    /// is solved by lines and shaped as a tree (one stick fewer than particles), with no angle
+    /// constraint and no tether (both relaxed iteratively), so that its solve is exact whatever
+    /// the substep — chains, ropes, pendulums and trees under [`Method::Auto`]; not a cloth or
+    /// a ragdoll put on lines.
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Island, Method};
@@ -188,10 +189,11 @@ impl Island {
     /// assert!(!cloth.takes_line_substeps());
     /// ```
     pub fn takes_line_substeps(&self) -> bool {
-        let count = |r: &Range<u32>| r.end.saturating_sub(r.start);
+        let count = |r: &Range<u32>| r.end.saturating_sub(r.start) as usize;
         self.method == Method::Lines
             && self.angles.is_empty()
-            && count(&self.sticks) + 1 == count(&self.particles)
+            && self.tethers.is_empty()
+            && is_chain_or_tree(count(&self.sticks), count(&self.particles))
     }
 }
 

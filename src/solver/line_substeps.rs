@@ -8,7 +8,7 @@
 //! lengths in one long substep, and the Newton passes then start far from the constraints. So
 //! an island takes the shorter count only in steps where no rigid stick of it, its ends moving
 //! on at their velocities — a pinned end towards its pin's target — for one such substep, would
-//! stretch or shrink by more than [`HIT_ABOVE`] times its length ([`hit_hard`]); otherwise it
+//! stretch by more than [`HIT_ABOVE`] times its length or have its ends cross ([`hit_hard`]); otherwise it
 //! takes the step's count, with its Verlet state re-expressed for it
 //! ([`resubstep`](super::resubstep), velocities kept). A rope carried along by its pin moves
 //! with it and is not hit; a pin jerked away from its rope is.
@@ -36,27 +36,29 @@ use super::{Particles, Pins, StickKind, Sticks};
 use glam::DVec3;
 use std::ops::Range;
 
-/// The largest relative stretch (or shrink) a rigid stick may reach in one substep of
+/// The largest relative stretch a rigid stick may reach in one substep of
 /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps), its ends moving on at their
-/// velocities, for its island to take that count in a step (see the [module docs](self)):
-/// beyond, the step is a hit rather than motion, and the island takes the step's substeps.
-/// Swinging under gravity stays far below it (a stick turning by `θ` per substep stretches by
-/// about `θ²/2`: 0.14 at 30°). Measured with the generator of `random_heavy_scene`
-/// (`tests/direct.rs`: chains and trees, loads up to 10⁴ times a link, one or two pins, kicked
-/// by up to 30 m/s on half of them, 1200 seeds → 1033 scenes, 2 s), a scratch scan: at 2
-/// substeps and no guard, 7 scenes ended beyond 1 % strain (up to 1100 times a link's length)
-/// — they had reached 2.3–13 in the step of the kick, where all but 3 of the others (4.1–6.3)
-/// stayed below 2.0. With the step at 8 substeps and `line_substeps` 2 guarded at 1.0, about
-/// 240 of the scenes take 8 substeps in some step (kicked ones) and none fails: largest strain
-/// 1.7·10⁻⁴ (8 substeps throughout: 1.6·10⁻⁵), energy never more than 0.26 % of its scale
-/// above its start.
+/// velocities, for its island to take that count in a step — and (rigid sticks and struts) the
+/// largest shrink, 1 being its ends crossing (see the [module docs](self)): beyond, the step is
+/// a hit rather than motion, and the island takes the step's substeps. Swinging under gravity
+/// stays far below it (a stick turning by `θ` per substep stretches by about `θ²/2`: 0.14 at
+/// 30°). Measured with the generator of `random_heavy_scene` (`tests/direct.rs`: chains and
+/// trees, loads up to 10⁴ times a link, one or two pins, kicked by up to 30 m/s on half of
+/// them, 1200 seeds → 1033 scenes, 2 s), a scratch scan: at 2 substeps and no guard, 7 scenes
+/// ended beyond 1 % strain (up to 1100 times a link's length) — they had reached a stretch of
+/// 2.3–13 in the step of the kick, where all but 3 of the others (4.1–6.3) stayed below 2.0.
+/// With the step at 8 substeps and `line_substeps` 2 guarded at 1.0 none fails: largest strain
+/// 1.7·10⁻⁴ (8 substeps throughout: 1.6·10⁻⁵), energy never more than 0.28 % of its scale above
+/// its start; 909 of the 132 224 steps, in 486 scenes (the kicked ones), take 8 substeps
+/// (`random_heavy_chains_and_trees_hit_hard_at_two_line_substeps_stay_unstretched` with
+/// `SCAN_SCENES=1200`).
 pub const HIT_ABOVE: f64 = 1.0;
 
-/// Whether a rigid stick in `sticks` would stretch or shrink by more than [`HIT_ABOVE`] times
-/// its length in a substep of `h_line`, its ends moving on at their velocities `(x − x*)/h_state`
-/// — an immovable end held by one of `pins` towards its target, which it reaches over the step
-/// of length `step` (one-sided sticks only in the direction they hold; springs and torn sticks
-/// left out).
+/// Whether a rigid stick in `sticks` would stretch by more than [`HIT_ABOVE`] times its
+/// length in a substep of `h_line`, or (rigid sticks and struts) have its ends cross, its ends
+/// moving on at their velocities `(x − x*)/h_state` — an immovable end held by one of `pins`
+/// towards its target, which it reaches over the step of length `step` (rope links only by
+/// stretching; springs, torn sticks and sticks of length 0 left out).
 pub(crate) fn hit_hard(
     (particles, sticks, pins): (&Particles, &Sticks, &Pins),
     (stick_range, pin_range): (Range<usize>, Range<usize>),
@@ -64,27 +66,35 @@ pub(crate) fn hit_hard(
 ) -> bool {
     let ahead = h_line / h_state;
     let (x, previous) = (&particles.position, &particles.previous);
-    // A particle's move per substep of `h_state`: a pinned one's towards its target.
+    // Pins are sorted by particle (`Solver::organize`); a particle pinned twice follows its last.
+    let held = &pins.particle[pin_range.clone()];
     let moved = |p: usize| {
         if particles.inverse_mass[p] > 0.0 {
             return x[p] - previous[p];
         }
-        let pin = pin_range.clone().find(|&k| pins.particle[k] as usize == p);
-        pin.map_or(DVec3::ZERO, |k| (pins.to[k] - x[p]) * (h_state / step))
+        let end = held.partition_point(|&q| q as usize <= p);
+        match end.checked_sub(1) {
+            Some(k) if held[k] as usize == p => {
+                (pins.to[pin_range.start + k] - x[p]) * (h_state / step)
+            }
+            _ => DVec3::ZERO,
+        }
     };
     stick_range.into_iter().any(|i| {
-        let kind = sticks.kind[i];
-        if sticks.compliance[i] != 0.0 || kind == StickKind::Torn {
+        let (kind, rest) = (sticks.kind[i], sticks.rest_length[i]);
+        // (A stick of length 0 has no strain to measure, as in `Sticks::strain`.)
+        if sticks.compliance[i] != 0.0 || kind == StickKind::Torn || rest == 0.0 {
             return false;
         }
-        let rest = sticks.rest_length[i].max(1e-12);
         let [a, b] = sticks.ends()[i].map(|p| p as usize);
-        let relative = moved(b) - moved(a);
-        let strain = (x[b] - x[a] + relative * ahead).length() / rest - 1.0;
+        let (now, ahead) = (x[b] - x[a], (moved(b) - moved(a)) * ahead);
+        let stretch = (now + ahead).length() / rest - 1.0;
+        // Along the stick's present direction: below 0 where its ends would cross.
+        let along = now.normalize_or_zero().dot(now + ahead) / rest;
         let violation = match kind {
-            StickKind::AtMost => strain,
-            StickKind::AtLeast => -strain,
-            _ => strain.abs(),
+            StickKind::AtMost => stretch,
+            StickKind::AtLeast => 1.0 - along,
+            _ => stretch.max(1.0 - along),
         };
         // (A NaN counts as a hit: the step's own count, as without `line_substeps`.)
         violation > HIT_ABOVE || violation.is_nan()

@@ -171,7 +171,6 @@ pub struct StepConfig {
     /// solver.organize();
     /// // Cloth and ragdolls swept at 8 substeps, ropes and chains solved exactly at 2.
     /// let config = StepConfig { line_substeps: Some(2), ..StepConfig::default() };
-    /// assert_eq!(solver.begin_step(&config), 2); // nothing here takes 8
     /// solver.step(&config);
     /// assert_eq!(solver.state_substep_of(bob), Some(config.timestep / 2.0));
     /// ```

@@ -235,7 +235,11 @@ impl Solver {
                 && mass_ratio(&self.particles.inverse_mass[range(&island.particles)])
                     > config.symmetric_mass_ratio;
             island.hit_hard = match config.line_substeps {
-                Some(n) if n < config.substeps && island.takes_line_substeps() => {
+                Some(n)
+                    if n < config.substeps
+                        && island.settings.is_none()
+                        && island.takes_line_substeps() =>
+                {
                     let h_state = match island.state_substep {
                         from if from > 0.0 => from,
                         _ => unset,
