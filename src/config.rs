@@ -74,7 +74,8 @@ pub struct VerletConfig {
     /// `substeps`. In a step where a rope is hit hard — a stick, its ends moving on at their
     /// velocities (a pinned end towards its target), would stretch by more than its length
     /// within one of its substeps, or have its ends cross — it takes `substeps`
-    /// (`solver::line_substeps`).
+    /// (`solver::line_substeps`); so does a rope with a spring too stiff for the longer
+    /// substep.
     ///
     /// ```
     /// use bevy::prelude::*;

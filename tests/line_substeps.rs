@@ -271,3 +271,28 @@ fn a_rope_carried_along_by_its_pin_keeps_its_line_substeps() {
     assert!(full_steps <= 1, "{full_steps} steps at 8 substeps");
     assert!(worst < 1e-6, "strain {worst}");
 }
+
+/// A spring too stiff for the longer substep keeps its island at the step's substeps
+/// (`SPRING_STIFFER_THAN`): two 1 kg particles on a spring of 10⁻⁵ m/N have `(ωh)²` = 12 at
+/// 1/128 s (Verlet is stable below 4), 0.76 at 1/512 s; one of 10⁻⁴ m/N has 1.2 and takes 2.
+#[test]
+fn a_stiff_spring_keeps_its_island_at_the_steps_substeps() {
+    for (compliance, expected) in [(1e-5, 8.0), (1e-4, 2.0)] {
+        let mut solver = Solver::default();
+        let pin = solver.add_particle(DVec3::ZERO, 0.0);
+        solver.pin(pin, DVec3::ZERO);
+        let a = solver.add_particle(DVec3::X * 0.1, 1.0);
+        let b = solver.add_particle(DVec3::X * 0.2, 1.0);
+        let kind = StickKind::Equal;
+        let sticks = &mut solver.sticks;
+        sticks.push([pin, a], 0.1, 0.0, kind, f64::INFINITY, 0);
+        sticks.push([a, b], 0.1, compliance, kind, f64::INFINITY, 0);
+        solver.organize();
+        let config = two();
+        for _ in 0..64 {
+            solver.step(&config);
+            let substeps = (config.timestep / solver.state_substep_of(b).unwrap()).round();
+            assert_eq!(substeps, expected, "compliance {compliance}");
+        }
+    }
+}
