@@ -128,9 +128,10 @@ pub struct Island {
     /// island); see [`resubstep`](super::resubstep).
     pub state_substep: f64,
     /// Set by [`Solver::begin_step`](super::Solver::begin_step) for an awake island that could
-    /// take [`StepConfig::line_substeps`](super::StepConfig::line_substeps): a stick of it would
-    /// stretch beyond [`HIT_ABOVE`](super::line_substeps::HIT_ABOVE) in one such substep, so it
-    /// takes the step's substeps in this step (see [`line_substeps`](super::line_substeps)).
+    /// take [`StepConfig::line_substeps`](super::StepConfig::line_substeps): it is hit hard (a
+    /// stick of it would stretch beyond [`HIT_ABOVE`](super::line_substeps::HIT_ABOVE) in one
+    /// such substep, or have its ends cross) or holds a spring too stiff for them, so it takes
+    /// the step's substeps in this step (see [`line_substeps`](super::line_substeps)).
     pub hit_hard: bool,
 }
 

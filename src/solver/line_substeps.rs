@@ -33,7 +33,7 @@
 //! assert_eq!(solver.state_substep_of(bob), Some(config.timestep / 8.0));
 //! ```
 
-use super::{Particles, Pins, StickKind, Sticks};
+use super::{Island, Particles, Pins, StepConfig, StickKind, Sticks};
 use glam::DVec3;
 use std::ops::Range;
 
@@ -64,6 +64,35 @@ pub const HIT_ABOVE: f64 = 1.0;
 /// their energy scale (chains of 1 kg links on such springs: `(ωh)²` = 12); at 8 substeps at
 /// most 0.009.
 pub const SPRING_STIFFER_THAN: f64 = 3.0;
+
+/// [`Island::hit_hard`] for this step: whether `island`, which could take
+/// [`StepConfig::line_substeps`] (fewer than the step's substeps, no override of its own), is
+/// hit hard or holds a spring too stiff for them ([`hit_hard`]); `false` where it could not.
+/// `unset`: the substep of a Verlet state not yet set per island
+/// ([`Solver::verlet_substep`](super::Solver::verlet_substep), or the step's).
+pub(crate) fn island_hit_hard(
+    island: &Island,
+    arrays: (&Particles, &Sticks, &Pins),
+    config: &StepConfig,
+    unset: f64,
+) -> bool {
+    match config.line_substeps {
+        Some(n) if n < config.substeps && island.settings.is_none() => {
+            if !island.takes_line_substeps() {
+                return false;
+            }
+            let h_state = match island.state_substep {
+                from if from > 0.0 => from,
+                _ => unset,
+            };
+            let h_line = config.timestep / n.max(1) as f64;
+            let span = |r: &Range<u32>| r.start as usize..r.end as usize;
+            let ranges = (span(&island.sticks), span(&island.pins));
+            hit_hard(arrays, ranges, (h_state, h_line, config.timestep))
+        }
+        _ => false,
+    }
+}
 
 /// Whether a rigid stick in `sticks` would stretch by more than [`HIT_ABOVE`] times its
 /// length in a substep of `h_line`, or (rigid sticks and struts) have its ends cross, its ends

@@ -17,7 +17,7 @@ use super::colliders::constrain_range;
 use super::direct::{LineRef, LineScratch, LineSolve, LineViews};
 use super::hierarchy::AFTER_SWEEP_FROM_LEVEL;
 use super::integrate::{integrate_range, resubstep};
-use super::line_substeps::hit_hard;
+use super::line_substeps::island_hit_hard;
 use super::lines::Method;
 use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
@@ -234,23 +234,8 @@ impl Solver {
                 && !island.sticks.is_empty()
                 && mass_ratio(&self.particles.inverse_mass[range(&island.particles)])
                     > config.symmetric_mass_ratio;
-            island.hit_hard = match config.line_substeps {
-                Some(n)
-                    if n < config.substeps
-                        && island.settings.is_none()
-                        && island.takes_line_substeps() =>
-                {
-                    let h_state = match island.state_substep {
-                        from if from > 0.0 => from,
-                        _ => unset,
-                    };
-                    let h_line = config.timestep / n.max(1) as f64;
-                    let ranges = (range(&island.sticks), range(&island.pins));
-                    let arrays = (&self.particles, &self.sticks, &self.pins);
-                    hit_hard(arrays, ranges, (h_state, h_line, config.timestep))
-                }
-                _ => false,
-            };
+            let arrays = (&self.particles, &self.sticks, &self.pins);
+            island.hit_hard = island_hit_hard(island, arrays, config, unset);
             let own = island.own_settings(config).map(|_| island.config(config));
             count = count.max(own.map_or(config.substeps, |c| c.substeps));
             let h = own.map_or(global, |c| c.substep());
