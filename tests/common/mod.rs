@@ -100,26 +100,31 @@ pub fn solver_position(app: &App, entity: Entity) -> Option<glam::DVec3> {
 pub fn energy(app: &App) -> f64 {
     let world = app.world();
     let state = world.resource::<VerletState>();
-    let config = world.resource::<VerletConfig>();
     let g = world.resource::<Gravity>().0.as_dvec3();
-    let h =
-        world.resource::<Time<Fixed>>().timestep().as_secs_f64() / config.substeps.max(1) as f64;
     let p = &state.solver.particles;
     let potential: f64 = (0..p.len())
         .filter(|&i| p.inverse_mass[i] > 0.0)
         .map(|i| -g.dot(p.position[i]) / p.inverse_mass[i])
         .sum();
-    p.kinetic_energy(h) + potential
+    kinetic_energy(app) + potential
 }
 
-/// Kinetic energy of the movable particles in the solver (velocities over the last substep).
+/// Kinetic energy of the movable particles in the solver (velocities over the last substep of
+/// each particle's island: an `IslandOverride` or `line_substeps` may give it its own).
 pub fn kinetic_energy(app: &App) -> f64 {
     let world = app.world();
     let state = world.resource::<VerletState>();
     let config = world.resource::<VerletConfig>();
-    let h =
-        world.resource::<Time<Fixed>>().timestep().as_secs_f64() / config.substeps.max(1) as f64;
-    state.solver.particles.kinetic_energy(h)
+    let step = world.resource::<Time<Fixed>>().timestep().as_secs_f64();
+    let global = step / config.substeps.max(1) as f64;
+    let p = &state.solver.particles;
+    (0..p.len())
+        .filter(|&i| p.inverse_mass[i] > 0.0)
+        .map(|i| {
+            let h = state.solver.state_substep_of(i as u32).unwrap_or(global);
+            0.5 * p.velocity(i, h).length_squared() / p.inverse_mass[i]
+        })
+        .sum()
 }
 
 /// Largest strain `length / rest − 1` (positive = stretched) over the solver's active sticks,
