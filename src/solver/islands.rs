@@ -151,6 +151,22 @@ impl Island {
         configured(step, self.own_settings(step))
     }
 
+    /// [`Island::state_substep`], or `unset` (the substep of a state not yet set per island)
+    /// where it is 0.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Island;
+    /// assert_eq!(Island::default().state_substep_or(0.25), 0.25);
+    /// let island = Island { state_substep: 0.5, ..Island::default() };
+    /// assert_eq!(island.state_substep_or(0.25), 0.5);
+    /// ```
+    pub fn state_substep_or(&self, unset: f64) -> f64 {
+        match self.state_substep {
+            from if from > 0.0 => from,
+            _ => unset,
+        }
+    }
+
     /// Its substeps and iterations where they are not the step's: its [`Island::settings`], else
     /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) (at least 1) if it
     /// [`Island::takes_line_substeps`] and is not [`Island::hit_hard`] in this step.

@@ -33,6 +33,7 @@
 //! assert_eq!(solver.state_substep_of(bob), Some(config.timestep / 8.0));
 //! ```
 
+use super::step::range;
 use super::{Island, Particles, Pins, StepConfig, StickKind, Sticks};
 use glam::DVec3;
 use std::ops::Range;
@@ -81,13 +82,9 @@ pub(crate) fn island_hit_hard(
             if !island.takes_line_substeps() {
                 return false;
             }
-            let h_state = match island.state_substep {
-                from if from > 0.0 => from,
-                _ => unset,
-            };
+            let h_state = island.state_substep_or(unset);
             let h_line = config.timestep / n.max(1) as f64;
-            let span = |r: &Range<u32>| r.start as usize..r.end as usize;
-            let ranges = (span(&island.sticks), span(&island.pins));
+            let ranges = (range(&island.sticks), range(&island.pins));
             hit_hard(arrays, ranges, (h_state, h_line, config.timestep))
         }
         _ => false,

@@ -236,13 +236,12 @@ impl Solver {
                     > config.symmetric_mass_ratio;
             let arrays = (&self.particles, &self.sticks, &self.pins);
             island.hit_hard = island_hit_hard(island, arrays, config, unset);
-            let own = island.own_settings(config).map(|_| island.config(config));
+            let own = island
+                .own_settings(config)
+                .map(|own| super::islands::configured(config, Some(own)));
             count = count.max(own.map_or(config.substeps, |c| c.substeps));
             let h = own.map_or(global, |c| c.substep());
-            let from = match island.state_substep {
-                from if from > 0.0 => from,
-                _ => unset,
-            };
+            let from = island.state_substep_or(unset);
             if from != h {
                 let particles = range(&island.particles);
                 resubstep(&mut self.particles, particles, config.gravity, from, h);
@@ -1040,7 +1039,7 @@ fn due<'a>(
     })
 }
 
-fn range(r: &Range<u32>) -> Range<usize> {
+pub(crate) fn range(r: &Range<u32>) -> Range<usize> {
     r.start as usize..r.end as usize
 }
 
