@@ -289,7 +289,7 @@ fn gather(
         wake_touched(state, coupled);
     }
     // With nothing to couple the lists stay empty and no pass runs in the substeps.
-    coupled.external.begin_step(&state.solver);
+    coupled.external.begin_step(&mut state.solver);
 }
 
 /// The avian bodies and gravity, as `gather` reads them.

@@ -49,7 +49,7 @@ use std::ops::Range;
 /// external.attachments.push(Attachment::new(end, 0, DVec3::ZERO));
 /// let config = StepConfig::default();
 /// for _ in 0..60 {
-///     external.begin_step(&solver);
+///     external.begin_step(&mut solver);
 ///     let count = solver.begin_step(&config);
 ///     for index in 1..=count {
 ///         let substep = GlobalSubstep { config, index, count, plain: false };
@@ -138,8 +138,14 @@ impl<S: ContactShape> External<S> {
     /// Starts a step after the lists were filled: notes, for every island with an attachment,
     /// the bodies attached to it (particles never collide with a body attached to their
     /// island, as avian's joints disable collisions between the bodies they join; any number
-    /// of bodies per island).
-    pub fn begin_step(&mut self, solver: &Solver) {
+    /// of bodies per island), and the attached particles in [`Solver::attached`] (their islands
+    /// step with the bodies). Call it before [`Solver::begin_step`].
+    pub fn begin_step(&mut self, solver: &mut Solver) {
+        solver.attached.clear();
+        solver
+            .attached
+            .extend(self.attachments.iter().map(|a| a.particle));
+        solver.attached.sort_unstable();
         self.contacts = 0;
         self.max_radius = if self.colliders.is_empty() {
             0.0

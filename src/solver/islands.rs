@@ -130,9 +130,10 @@ pub struct Island {
     /// Set by [`Solver::begin_step`](super::Solver::begin_step) for an awake island that could
     /// take [`StepConfig::line_substeps`](super::StepConfig::line_substeps): it is hit hard (a
     /// stick of it would stretch beyond [`HIT_ABOVE`](super::line_substeps::HIT_ABOVE) in one
-    /// such substep, or have its ends cross) or holds a spring too stiff for them, so it takes
-    /// the step's substeps in this step (see [`line_substeps`](super::line_substeps)).
-    pub hit_hard: bool,
+    /// such substep, or have its ends cross), holds a spring too stiff for them, or has a
+    /// particle attached to another engine's body ([`Solver::attached`](super::Solver::attached)),
+    /// so it takes the step's substeps in this step (see [`line_substeps`](super::line_substeps)).
+    pub keeps_step_substeps: bool,
 }
 
 impl Island {
@@ -169,7 +170,7 @@ impl Island {
 
     /// Its substeps and iterations where they are not the step's: its [`Island::settings`], else
     /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) (at least 1) if it
-    /// [`Island::takes_line_substeps`] and is not [`Island::hit_hard`] in this step.
+    /// [`Island::takes_line_substeps`] and does not [`Island::keeps_step_substeps`] in this step.
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Island, Method, StepConfig};
@@ -182,7 +183,7 @@ impl Island {
     /// ```
     pub fn own_settings(&self, step: &super::StepConfig) -> Option<IslandSettings> {
         self.settings.or_else(|| match step.line_substeps {
-            Some(substeps) if self.takes_line_substeps() && !self.hit_hard => {
+            Some(substeps) if self.takes_line_substeps() && !self.keeps_step_substeps => {
                 Some(IslandSettings {
                     substeps: substeps.max(1),
                     iterations: step.iterations,
@@ -797,7 +798,7 @@ impl Solver {
             symmetric: false,
             calm_time,
             state_substep: 0.0,
-            hit_hard: false,
+            keeps_step_substeps: false,
         });
         islands.lines.clear();
         islands.hierarchies.clear();

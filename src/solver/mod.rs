@@ -273,6 +273,32 @@ pub struct Solver {
     /// Per-island method overrides: the island containing the particle is solved this way
     /// (applied by [`Solver::organize`]).
     pub island_methods: Vec<(u32, Method)>,
+    /// Particle slots attached to another engine's bodies in this step, sorted (set by
+    /// [`External::begin_step`]): their islands take the step's substeps, not
+    /// [`StepConfig::line_substeps`], so that they step with the bodies (see
+    /// [`line_substeps`]).
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};
+    /// use glam::DVec3;
+    /// // Two pendulums; the bob of the second is tied to a body.
+    /// let mut solver = Solver::default();
+    /// let mut bobs = Vec::new();
+    /// for x in [0.0, 5.0] {
+    ///     let pin = solver.add_particle(DVec3::X * x, 0.0);
+    ///     solver.pin(pin, DVec3::X * x);
+    ///     let bob = solver.add_particle(DVec3::X * (x + 1.0), 1.0);
+    ///     solver.sticks.push([pin, bob], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    ///     bobs.push(bob);
+    /// }
+    /// solver.organize();
+    /// let config = StepConfig { line_substeps: Some(2), ..StepConfig::default() };
+    /// solver.attached = vec![bobs[1]];
+    /// solver.step(&config);
+    /// assert_eq!(solver.state_substep_of(bobs[0]), Some(config.timestep / 2.0));
+    /// assert_eq!(solver.state_substep_of(bobs[1]), Some(config.timestep / 8.0));
+    /// ```
+    pub attached: Vec<u32>,
     /// Scratch of [`Solver::organize`]'s line cover.
     pub(crate) line_builder: lines::LineBuilder,
     /// Scratch of the line solves.
@@ -310,6 +336,7 @@ impl Solver {
         self.island_settings.clear();
         self.island_methods.clear();
         self.wake_requests.clear();
+        self.attached.clear();
         self.tethers_stale = false;
         self.islands.list.0.clear();
         self.islands.batches.0.clear();

@@ -17,7 +17,7 @@ use super::colliders::constrain_range;
 use super::direct::{LineRef, LineScratch, LineSolve, LineViews};
 use super::hierarchy::AFTER_SWEEP_FROM_LEVEL;
 use super::integrate::{integrate_range, resubstep};
-use super::line_substeps::island_hit_hard;
+use super::line_substeps::keeps_step_substeps;
 use super::lines::Method;
 use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
@@ -235,7 +235,8 @@ impl Solver {
                 && mass_ratio(&self.particles.inverse_mass[range(&island.particles)])
                     > config.symmetric_mass_ratio;
             let arrays = (&self.particles, &self.sticks, &self.pins);
-            island.hit_hard = island_hit_hard(island, arrays, config, unset);
+            island.keeps_step_substeps =
+                keeps_step_substeps(island, arrays, &self.attached, config, unset);
             let own = island
                 .own_settings(config)
                 .map(|own| super::islands::configured(config, Some(own)));
