@@ -6,9 +6,11 @@
 use bevy_verlet_physics::solver::{Method, Solver, StepConfig, StickKind};
 use glam::DVec3;
 
+mod chain;
 mod grid;
 mod random;
 
+use chain::chain_along;
 use random::Scan;
 
 const G: f64 = 9.81;
@@ -18,18 +20,7 @@ const G: f64 = 9.81;
 fn chain(links: usize, length: f64, direction: DVec3, tip_ratio: f64, method: Method) -> Solver {
     let mut solver = Solver::default();
     solver.method = method;
-    let link = length / links as f64;
-    let pin = solver.add_particle(DVec3::ZERO, 0.0);
-    solver.pin(pin, DVec3::ZERO);
-    let mut previous = pin;
-    for i in 1..=links {
-        let w = if i == links { 1.0 / tip_ratio } else { 1.0 };
-        let p = solver.add_particle(direction * (link * i as f64), w);
-        solver
-            .sticks
-            .push([previous, p], link, 0.0, StickKind::Equal, f64::INFINITY, 0);
-        previous = p;
-    }
+    chain_along(&mut solver, (links, length), tip_ratio, direction);
     solver.organize();
     solver
 }

@@ -6,35 +6,16 @@
 use bevy_verlet_physics::solver::{IslandSettings, Method, Solver, StepConfig, StickKind};
 use glam::DVec3;
 
+mod chain;
+
+use chain::chain_along;
+
 const G: f64 = 9.81;
 
 /// A chain of `links` rigid links, `length` long, pinned at the origin and laid out along `+X`,
 /// its tip `tip_ratio` times as heavy as a link (1 kg). Returns its tip.
 fn chain(solver: &mut Solver, links: usize, length: f64, tip_ratio: f64) -> u32 {
     chain_along(solver, (links, length), tip_ratio, DVec3::X)
-}
-
-/// [`chain`] laid out along `direction` (a unit vector).
-fn chain_along(
-    solver: &mut Solver,
-    (links, length): (usize, f64),
-    tip_ratio: f64,
-    direction: DVec3,
-) -> u32 {
-    let link = length / links as f64;
-    let pin = solver.add_particle(DVec3::ZERO, 0.0);
-    solver.pin(pin, DVec3::ZERO);
-    let mut previous = pin;
-    for i in 1..=links {
-        let w = if i == links { 1.0 / tip_ratio } else { 1.0 };
-        let p = solver.add_particle(direction * (link * i as f64), w);
-        let kind = StickKind::Equal;
-        solver
-            .sticks
-            .push([previous, p], link, 0.0, kind, f64::INFINITY, 0);
-        previous = p;
-    }
-    previous
 }
 
 /// A 10 × 10 cloth of 5 cm hung by its top row, 3 m to the side (swept under `Auto`).
