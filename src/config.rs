@@ -64,18 +64,19 @@ pub struct VerletConfig {
     pub symmetric_mass_ratio: f32,
     /// Substeps of ropes, chains, pendulums and trees — tree-shaped islands, which
     /// [`SolveMethod::Auto`] solves exactly by lines — that carry no [`IslandOverride`] of
-    /// their own; `None` (the default): [`VerletConfig::substeps`], as for every other island;
+    /// their own, no tethers and no angle constraints; `None` (the default):
+    /// [`VerletConfig::substeps`], as for every other island;
     /// `Some(0)` is taken as 1. Their solve is exact at any substep count, so fewer substeps cost
     /// a rope no stretch, only accuracy in time: at `Some(2)` the report's chains stay within
     /// 10⁻⁹ of their lengths, a 120° pendulum's period is off by −0.008 % and a double pendulum
-    /// loses 0.2 % of its energy over 60 s, at 0.28–0.42× the time of 8 swept substeps (the
-    /// 200-link chain swinging: 1.34×; the 1000:1 chain whipping from horizontal: 2.00×, 4.30×
-    /// at 8; see the crate README, "Configuration"). Cloth, ragdolls and structures keep
-    /// `substeps`. In a step where a rope is hit hard — a stick, its ends moving on at their
-    /// velocities (a pinned end towards its target), would stretch by more than its length
-    /// within one of its substeps, or have its ends cross — it takes `substeps`
+    /// loses 0.2 % of its energy over 60 s, at 0.27–0.42× the time of 8 swept substeps (the
+    /// 200-link chain swinging: 1.32–1.36×; the 1000:1 chain whipping from horizontal:
+    /// 1.99–2.00×, 4.21–4.33× at 8; see the crate README, "Configuration"). Cloth, ragdolls and
+    /// structures keep `substeps`. In a step where a rope is hit hard — a stick, its ends moving
+    /// on at their velocities (a pinned end towards its target), would stretch by more than its
+    /// length within one of its substeps, or have its ends cross — it takes `substeps`
     /// (`solver::line_substeps`); so does a rope with a spring too stiff for the longer
-    /// substep.
+    /// substep, and one attached to an avian body (it steps with the body).
     ///
     /// ```
     /// use bevy::prelude::*;
