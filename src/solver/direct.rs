@@ -31,14 +31,14 @@
 //! 1/[`SHAKE_CONTRACTION`], the sign of a substep SHAKE will not solve — is projected along the
 //! current directions for that substep instead. A line alone in its island (a chain, a rope)
 //! starts a substep that begins projected with one full Newton pass that includes the
-//! constraints' curvature ([`curvature`]): the projection then converges in a few passes where
+//! constraints' curvature (`curvature`): the projection then converges in a few passes where
 //! it used to wander (a whipping 1000:1 chain: 28 % fewer passes in all, 12 % less time). Where
 //! the projection has still not converged after [`FULL_NEWTON_AFTER`] passes, full Newton
 //! passes (the curvature in every pass, the residual measured against the kept prediction) take
 //! over: Gauss–Newton alone does not converge on loads 10⁵–10⁶ times a link's mass. A line
-//! pinned at both ends takes both too, its last stick closing the loop ([`closure`]). Such a
+//! pinned at both ends takes both too, its last stick closing the loop (`closure`). Such a
 //! projection that converged on a far root (a load thrown round its pin), or did not converge
-//! while its pins stood still, is tried again from the start of the substep ([`second_try`]).
+//! while its pins stood still, is tried again from the start of the substep (`second_try`).
 //!
 //! Each substep starts from the last substep's multipliers (a warm start along the start
 //! directions: constraint forces change little between substeps; taken back if it makes the
@@ -57,7 +57,7 @@
 //!
 //! A projection whose passes run out unconverged (the budget of [`MAX_PASSES`]) and leave a line
 //! with a larger error than its prediction had is put back at the prediction and swept once
-//! instead ([`LineSolve::fall_back`]) — for a line that shares particles with others (lines
+//! instead (`LineSolve::fall_back`) — for a line that shares particles with others (lines
 //! meeting at forks) the prediction is where the lines solved before it left its particles, and
 //! this holds in a substep's first round: before it did, trees pinned at three or four
 //! particles kicked by up to 30 m/s reached 10⁸ link lengths, 3 of 1033 in a scratch scan, none
@@ -65,13 +65,13 @@
 //! [`tree`](super::tree); lines still meet at forks in meshes forced onto lines and in trees
 //! with a part held by more than nine pins).
 //! Gauss–Newton passes far from the constraints can wander off, a sweep cannot — unless the
-//! iterate is finite, within [`NEARLY_ON`] of its rigid sticks' constraints, nearer them than
+//! iterate is finite, within `NEARLY_ON` of its rigid sticks' constraints, nearer them than
 //! the sweep and not
-//! [`FARTHER_THAN_A_SWEEP`] from the prediction: then it is kept (the error compared first
+//! `FARTHER_THAN_A_SWEEP` from the prediction: then it is kept (the error compared first
 //! counts a multiplier not yet released, and a review found iterates 4·10⁻⁹–7·10⁻³ off their
 //! constraints swept into 46–310 % strain where pins jump each step). An unconverged projection
 //! that has thrown its loads — moved the particles (mass-weighted squared distances) more than
-//! [`THROWN_ABOVE`] times as far from the start of the substep as the prediction did, its
+//! `THROWN_ABOVE` times as far from the start of the substep as the prediction did, its
 //! residual smaller or not — goes to the same fallback, the same exception included:
 //! unconverged passes can throw a heavy load across many link lengths (a random rope at one
 //! substep kicked by 30 m/s gained 1940 times its scale in one step). Trees use the same rule,
@@ -82,7 +82,7 @@
 //! the largest strain went from 2780 % to 255 % and the largest energy gain from 76 % to 0.13 %
 //! of a scene's scale; kicked by 30 m/s, from 2.6·10¹⁰ link lengths and 2.9·10¹⁵ times the
 //! scale to 7400 and 1900 times (71 of 506 scenes still stretch beyond 1 %; with
-//! [`THROWN_ABOVE`] 934 link lengths and 584 times, the same 71; with the second tries of
+//! `THROWN_ABOVE` 934 link lengths and 584 times, the same 71; with the second tries of
 //! lines and, beyond `CURVATURE_BELOW`, trees 606 and 2.3 times, 42 of 506; with lines' beyond
 //! it too, from a start on its constraints, 25 of 506); at 8 substeps kicked by 100 m/s (2109
 //! scenes) the worse of the two that fail went from 6.3·10⁶ to 447 link lengths (28 with the
@@ -91,10 +91,10 @@
 //! whipping 1000:1 chain, the 200-link chain and the 50 × 50 cloth by lines).
 //! A prediction whose error is beyond [`CURVATURE_BELOW`] is measured again before its
 //! curvature and full Newton passes are left out: a rope link counted only where it is
-//! stretched, a strut only where it is compressed ([`violation`]), a spring's stretch that its
+//! stretched, a strut only where it is compressed (`violation`), a spring's stretch that its
 //! last multiplier balanced left out (`LineSolve::within_reach`; trees alike).
 //!
-//! One-sided sticks use a primal–dual active set ([`in_system_with`]): a rope link is in the
+//! One-sided sticks use a primal–dual active set (`in_system_with`): a rope link is in the
 //! system while stretched or while its multiplier pulls by more than it is slack, a strut
 //! likewise in compression; out of it a multiplier is released (its row reads `Δλ = −λ`);
 //! torn sticks and sticks between two immovable particles are never in it (a line splits
@@ -149,7 +149,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 pub const TOLERANCE: f64 = 1e-9;
 
 /// Newton passes per line and round at most — but for a second try from the start of the
-/// substep, which may take as many again (lines: [`second_try`]; trees alike).
+/// substep, which may take as many again (lines: `second_try`; trees alike).
 pub const MAX_PASSES: u32 = 32;
 
 /// SHAKE is used for a line only while every stick's predicted turn in a substep has a cosine
@@ -171,8 +171,8 @@ pub const SHAKE_CONTRACTION: f64 = 0.1;
 /// SHAKE is used for a line pinned at both ends, or a tree, only while every particle's
 /// `w Σ μ_k` is below this, summed over its sticks, `μ_k = max(−λ_k, 0)/d_k` from the last
 /// substep's multipliers and the sticks' lengths at the start of the substep
-/// ([`tension_stiffness`]). A stick's tension stiffens its ends against turning it (its
-/// curvature, see [`kkt`](super::kkt)), and `2 w Σ μ` bounds `(ωh)²` of the fastest such
+/// (`tension_stiffness`). A stick's tension stiffens its ends against turning it (its
+/// curvature, see `kkt`), and `2 w Σ μ` bounds `(ωh)²` of the fastest such
 /// vibration (Gershgorin; equal for a zigzag along a chain under even tension: `ω² = 4T/(mℓ)`).
 /// Verlet, and so SHAKE, is stable only for `ωh < 2`, i.e. `w Σ μ < 2`; the projection,
 /// implicit along the sticks, is stable whatever the tension, so a line or tree past the bound
@@ -204,7 +204,7 @@ pub const SHAKE_CONTRACTION: f64 = 0.1;
 /// swinging 1000:1 chain (10 143 → 4822 in 5 s at 8 × 1; 37 → 31 ms, a scratch test in the
 /// test profile, interleaved with the commit before) and cut the 200-link chain's (5367 →
 /// 4024, the same time: projected substeps start with a costly curvature pass, see
-/// [`curvature`]), at a little more energy lost by swinging chains (1000:1 chain 14.6 → 20.1 %
+/// `curvature`), at a little more energy lost by swinging chains (1000:1 chain 14.6 → 20.1 %
 /// of what the fall released, 140 links 40.0 → 44.4 %) — but it changed the trajectory of the
 /// rope whose pin is teleported a kilometre (`tests/hard_cases.rs`: three substeps of the yank
 /// projected) so that, 4 s later, SHAKE's bounded energy oscillation of a still-whipping rope
@@ -221,7 +221,7 @@ pub(crate) fn tension_stiffness(lambda: f64, length: f64) -> f64 {
 }
 
 /// Curvature passes, and the full Newton passes that take over where Gauss–Newton does not
-/// converge (see [`curvature`]), run only where the prediction violates the line or tree by less
+/// converge (see `curvature`), run only where the prediction violates the line or tree by less
 /// than this (largest `|C|/L`): ten times a link's length. Beyond it the prediction is a jump
 /// rather than motion — the 10-link rope of `tests/hard_cases.rs` whose pin is teleported a
 /// kilometre, 125 m per substep — and Gauss–Newton's unconverged passes take most of the jump's
@@ -229,9 +229,9 @@ pub(crate) fn tension_stiffness(lambda: f64, length: f64) -> f64 {
 /// instead of settling (about −1 J), beyond the hard case's bound on its energy after 4 s.
 /// (Trees take full Newton passes beyond it in one place: a second try from the start of the
 /// substep, whose result they keep only where it is near enough to be a projection, see
-/// [`TreeSolve::plausible`](super::tree::TreeSolve); lines too, but only from a start of the
-/// substep within [`NEARLY_ON`] of its constraints, as the second try's argument needs, see
-/// [`second_try`]: from any start they changed how that teleported rope settled, 1.26 J at 4 s
+/// `TreeSolve::plausible`; lines too, but only from a start of the
+/// substep within `NEARLY_ON` of its constraints, as the second try's argument needs, see
+/// `second_try`: from any start they changed how that teleported rope settled, 1.26 J at 4 s
 /// and then a rise of 0.22 J, beyond the hard case's bound.)
 ///
 /// Below it, they are what keeps heavy loads hit hard from blowing up: far from the
@@ -366,7 +366,7 @@ enum Start {
 }
 
 /// After SHAKE failed in a substep, the projection that follows starts with a curvature pass
-/// (see [`curvature`]) where some particle's `w Σ μ` from the last substep's multipliers (as for
+/// (see `curvature`) where some particle's `w Σ μ` from the last substep's multipliers (as for
 /// [`SHAKE_STIFFNESS_BELOW`], with rest lengths; a one-sided stick slack at the prediction
 /// counts zero, as it is not warm-started) is at least
 /// this: a tension that stiff turns the links under Gauss–Newton's feet, and Gauss–Newton from
@@ -401,7 +401,7 @@ pub const CURVATURE_AFTER_SHAKE_ABOVE: f64 = 12.0;
 pub const WARM_START_REACH: f64 = 2.0;
 
 /// Gauss–Newton passes a projection takes before full Newton passes (with the constraints'
-/// curvature, see [`curvature`]) take over, where they can. Gauss–Newton does not converge at
+/// curvature, see `curvature`) take over, where they can. Gauss–Newton does not converge at
 /// all on a chain holding a load 10⁵ times a link's mass released from horizontal: it leaves
 /// the links 40–90× their length; full Newton takes 3 passes per projected substep there (the
 /// C prototype, `report/prototypes/whip_substep.c`, mode `kkt-warm` at `-DTIP=100000.0`).

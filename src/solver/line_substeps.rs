@@ -8,7 +8,7 @@
 //! lengths in one long substep, and the Newton passes then start far from the constraints. So
 //! an island takes the shorter count only in steps where no rigid stick of it, its ends moving
 //! on at their velocities — a pinned end towards its pin's target — for one such substep, would
-//! stretch by more than [`HIT_ABOVE`] times its length or have its ends cross ([`hit_hard`]); otherwise it
+//! stretch by more than [`HIT_ABOVE`] times its length or have its ends cross (`hit_hard`); otherwise it
 //! takes the step's count, with its Verlet state re-expressed for it
 //! ([`resubstep`](super::resubstep), velocities kept). A rope carried along by its pin moves
 //! with it and is not hit; a pin jerked away from its rope is. An island with a spring too

@@ -17,7 +17,7 @@
 //! run SHAKE (the turn test squared, so the same up to rounding at its boundary): a rigid,
 //! two-sided stick with a movable end, in the first round of a substep, not right after a
 //! fallback, turning less than [`SHAKE_MIN_COSINE`] allows, its start within
-//! [`STABILISE_ABOVE`] of its length where the start is corrected. It also solves the rare
+//! `STABILISE_ABOVE` of its length where the start is corrected. It also solves the rare
 //! near-tangent substeps where the general SHAKE may give up (a root exists). Everything else
 //! (compliance, ropes, edits, fast turns) takes the general solve, and so do later rounds of the
 //! substep (iterations > 1) — along the start direction the closed form leaves in the scratch.

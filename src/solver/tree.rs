@@ -32,35 +32,35 @@
 //! Start violations of rigid sticks above 0.1 % (an edit, a spawn) are corrected on the start
 //! positions first, as the line solve does, so they do not become velocity. A projected
 //! substep starts with one full Newton pass that includes the constraints' curvature
-//! ([`curvature`]): a Y rope with 1000× heavier tips swinging takes 7112 passes in 5 s instead
+//! (`curvature`): a Y rope with 1000× heavier tips swinging takes 7112 passes in 5 s instead
 //! of 28 707.
 //!
 //! A projected substep whose passes end unconverged and leave the tree worse off than its
 //! prediction (a larger error, or mass-weighted farther from it than
 //! [`WARM_START_REACH`](super::direct::WARM_START_REACH) times the start of the substep, or
-//! its loads thrown, see [`THROWN_ABOVE`](super::direct::THROWN_ABOVE)) is
+//! its loads thrown, see `THROWN_ABOVE`) is
 //! put back at the prediction and swept once instead, unless the iterate is nearly on its
-//! constraints, nearer them than the sweep and not far off ([`TreeSolve::fall_back`], with
+//! constraints, nearer them than the sweep and not far off (`TreeSolve::fall_back`, with
 //! the rule of the lines): a sweep cannot blow up, and Gauss–Newton passes that wander can
 //! (random trees at one substep, kicked by 30 m/s: strains to 10¹⁰ link lengths before; see
 //! the module docs of [`direct`](super::direct) for the figures).
 //!
 //! A tree with a second immovable particle (a string of lanterns between two posts) is rooted
 //! at the first; the stick to the second closes a loop, its multiplier solved by a Schur
-//! complement of one row ([`closure`]); where the path between the two is pulled taut the tree
+//! complement of one row (`closure`); where the path between the two is pulled taut the tree
 //! is swept for the substep. A further particle made immovable in place below the root (a pin
 //! added without a rebuild; the Bevy layer rebuilds then) would make the system singular: such
 //! a tree is swept for the substep too.
 //!
-//! Three or more immovable particles split a tree ([`split`]): nothing moves through an
+//! Three or more immovable particles split a tree (`split`): nothing moves through an
 //! immovable particle, so the parts between them are independent, each rooted at one of its
 //! immovable particles. A part held by three to [`MAX_CLOSINGS`] + 1 of them is closed once per
 //! further one, the closing multipliers solved together by a small dense system
-//! ([`closings`]); a tree with a part held by more stays on lines. Measured on
+//! (`closings`); a tree with a part held by more stays on lines. Measured on
 //! random chains and trees with loads up to 10⁴× pinned at three or four particles (a scratch
 //! scan of 1033 scenes at 8 × 1, half kicked by up to 30 m/s): 355 beyond 100 % strain as
 //! lines meeting at forks, none beyond 10⁻⁵ now (`tests/direct.rs`). A stick torn in place or a one-sided stick out of its active set (see
-//! [`in_system_with`](super::direct::in_system_with)) is a row with `Δλ = −λ` (released): its
+//! `in_system_with`) is a row with `Δλ = −λ` (released): its
 //! subtree moves on its own.
 //!
 //! ```
