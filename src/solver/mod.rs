@@ -273,10 +273,10 @@ pub struct Solver {
     /// Per-island method overrides: the island containing the particle is solved this way
     /// (applied by [`Solver::organize`]).
     pub island_methods: Vec<(u32, Method)>,
-    /// Particle slots attached to another engine's bodies in this step, sorted (set by
-    /// [`External::begin_step`]): their islands take the step's substeps, not
-    /// [`StepConfig::line_substeps`], so that they step with the bodies (see
-    /// [`line_substeps`]).
+    /// Particle slots attached to another engine's bodies in this step (set by
+    /// [`External::begin_step`]; in any order, a slot that is no particle is ignored): their
+    /// islands take the step's substeps, not [`StepConfig::line_substeps`], so that they step
+    /// with the bodies (see [`line_substeps`]).
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};
@@ -293,7 +293,7 @@ pub struct Solver {
     /// }
     /// solver.organize();
     /// let config = StepConfig { line_substeps: Some(2), ..StepConfig::default() };
-    /// solver.attached = vec![bobs[1]];
+    /// solver.attached = vec![99, bobs[1]]; // (99 is no particle)
     /// solver.step(&config);
     /// assert_eq!(solver.state_substep_of(bobs[0]), Some(config.timestep / 2.0));
     /// assert_eq!(solver.state_substep_of(bobs[1]), Some(config.timestep / 8.0));

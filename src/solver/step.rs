@@ -220,6 +220,10 @@ impl Solver {
         // sleeping island rests with `x* = x`: left alone.)
         let global = config.substep();
         let unset = self.verlet_substep.unwrap_or(global);
+        // (`External::begin_step` sorts them; a list set by hand may not be.)
+        if !self.attached.is_sorted() {
+            self.attached.sort_unstable();
+        }
         for island in &mut self.islands.list.0 {
             if island.asleep && pins.moving(range(&island.pins)) {
                 island.asleep = false;
