@@ -66,7 +66,9 @@ pub struct VerletConfig {
     /// [`SolveMethod::Auto`] solves exactly by lines — that carry no [`IslandOverride`] of
     /// their own, no tethers and no angle constraints; `None` (the default):
     /// [`VerletConfig::substeps`], as for every other island;
-    /// `Some(0)` is taken as 1. Their solve is exact at any substep count, so fewer substeps cost
+    /// `Some(0)` is taken as 1, and a fixed step longer than 1/64 s (Bevy's default) gives them
+    /// more, so that none is longer than 1/64 s, never more than `substeps`
+    /// (`solver::line_substeps::line_substep_count`). Their solve is exact at any substep count, so fewer substeps cost
     /// a rope no stretch, only accuracy in time: at `Some(2)` the report's chains stay within
     /// 10⁻⁹ of their lengths, a 120° pendulum's period is off by −0.008 % and a double pendulum
     /// loses 0.2 % of its energy over 60 s, at 0.27–0.42× the time of 8 swept substeps (the

@@ -692,26 +692,35 @@ fn exact_period(g: f64) -> f64 {
 }
 
 /// Fixed steps of 0.1 ms (10 kHz) and 0.5 s (2 Hz, with `max_delta` raised to 1 s so that each
-/// update runs one step) both keep a pendulum's length and period. Measured period errors:
-/// 6·10⁻⁸ at 10 kHz, 1.1 % (long) at 2 Hz, whose 8 substeps are 62.5 ms (ωh ≈ 0.2); length
-/// error 2·10⁻⁸ at both (the f32 start position).
+/// update runs one step) both keep a pendulum's length and period, with its rod at the step's
+/// substeps and under `VerletConfig::line_substeps: Some(2)` — whose substeps are never longer
+/// than 1/64 s (`solver::line_substeps::LINE_SUBSTEP_LONGEST`), so at 2 Hz it takes the step's
+/// 8 of 62.5 ms (ωh ≈ 0.2). Measured period errors: 2·10⁻⁷ at 10 kHz (both), 9.8·10⁻⁴ (short)
+/// at 2 Hz (both; 2.7 % with 2 substeps of 0.25 s, before the cap); length error 2·10⁻⁸ (the
+/// f32 start position).
 #[test]
 fn very_small_and_very_large_fixed_timesteps() {
-    for (hz, seconds, bound) in [(10_000.0, 4.5, 1e-5), (2.0, 30.0, 0.015)] {
-        let mut app = app();
-        app.insert_resource(Time::<Fixed>::from_hz(hz));
-        app.world_mut()
-            .resource_mut::<Time<Virtual>>()
-            .set_max_delta(Duration::from_secs(1));
-        let (period, length_error) = pendulum(&mut app, seconds);
-        let exact = exact_period(9.81);
-        let error = (period - exact).abs() / exact;
-        println!(
-            "{hz} Hz: period {period:.5} s vs {exact:.5} ({error:.2e}), length error {length_error:.1e}"
-        );
-        assert!(error < bound, "{hz} Hz: period {period} vs {exact}");
-        assert!(length_error < 1e-6, "{hz} Hz: length error {length_error}");
-        assert!(all_finite(&mut app));
+    for line_substeps in [None, Some(2)] {
+        for (hz, seconds, bound) in [(10_000.0, 4.5, 1e-5), (2.0, 30.0, 0.015)] {
+            let mut app = app();
+            app.insert_resource(Time::<Fixed>::from_hz(hz))
+                .insert_resource(VerletConfig {
+                    line_substeps,
+                    ..default()
+                });
+            app.world_mut()
+                .resource_mut::<Time<Virtual>>()
+                .set_max_delta(Duration::from_secs(1));
+            let (period, length_error) = pendulum(&mut app, seconds);
+            let exact = exact_period(9.81);
+            let error = (period - exact).abs() / exact;
+            println!(
+                "{hz} Hz, line substeps {line_substeps:?}: period {period:.5} s vs {exact:.5} ({error:.2e}), length error {length_error:.1e}"
+            );
+            assert!(error < bound, "{hz} Hz: period {period} vs {exact}");
+            assert!(length_error < 1e-6, "{hz} Hz: length error {length_error}");
+            assert!(all_finite(&mut app));
+        }
     }
 }
 

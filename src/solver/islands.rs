@@ -23,6 +23,7 @@
 //! one thread, which is always safe (and the serial result). `tests/soundness.rs` checks this.
 
 use super::colouring::{Batch, MAX_COLOURS, colour_sticks};
+use super::line_substeps::line_substep_count;
 use super::lines::{LineSet, Method, cover, is_chain_or_tree};
 use super::{Solver, StickKind};
 use std::ops::Range;
@@ -169,7 +170,8 @@ impl Island {
     }
 
     /// Its substeps and iterations where they are not the step's: its [`Island::settings`], else
-    /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) (at least 1) if it
+    /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) (at least 1, more for a
+    /// step longer than 1/64 s: [`line_substep_count`]) if it
     /// [`Island::takes_line_substeps`] and does not [`Island::keeps_step_substeps`] in this step.
     ///
     /// ```
@@ -182,10 +184,10 @@ impl Island {
     /// assert_eq!(cloth.own_settings(&step), None);
     /// ```
     pub fn own_settings(&self, step: &super::StepConfig) -> Option<IslandSettings> {
-        self.settings.or_else(|| match step.line_substeps {
+        self.settings.or_else(|| match line_substep_count(step) {
             Some(substeps) if self.takes_line_substeps() && !self.keeps_step_substeps => {
                 Some(IslandSettings {
-                    substeps: substeps.max(1),
+                    substeps,
                     iterations: step.iterations,
                 })
             }

@@ -2,7 +2,9 @@
 //! by lines — chains, ropes, pendulums, trees, what [`Method::Auto`](super::Method::Auto) puts on
 //! lines — may take fewer substeps than the step. Their solve is exact at any substep count
 //! (see [`direct`](super::direct)), so fewer substeps cost them no stretch, only accuracy in
-//! time, and SHAKE keeps their energy at 2 substeps (the crate README, "Configuration").
+//! time, and SHAKE keeps their energy at 2 substeps (the crate README, "Configuration"). That
+//! accuracy depends on the substep's length, not on the count: a fixed step longer than
+//! [`LINE_SUBSTEP_LONGEST`] (1/64 s) gives them more substeps ([`line_substep_count`]).
 //!
 //! What fewer substeps do cost is robustness under hits: a load kicked hard moves many link
 //! lengths in one long substep, and the Newton passes then start far from the constraints. So
@@ -70,6 +72,14 @@ pub const HIT_ABOVE: f64 = 1.0;
 /// most 0.009.
 pub const SPRING_STIFFER_THAN: f64 = 3.0;
 
+/// The longest substep (s) of [`StepConfig::line_substeps`](super::StepConfig::line_substeps):
+/// Bevy's default fixed step, 1/64 s. A longer fixed step gives its lines more substeps, up to
+/// the step's own ([`line_substep_count`]): their solve is exact at any substep, but their
+/// motion is not — a 1 m pendulum's period at 2 Hz with 2 line substeps of 0.25 s was 2.7 %
+/// short, 1.1 % at the step's 8 (`very_small_and_very_large_fixed_timesteps`,
+/// `tests/hard_cases.rs`).
+pub const LINE_SUBSTEP_LONGEST: f64 = 1.0 / 64.0;
+
 /// [`Island::keeps_step_substeps`] for this step: whether `island`, which could take
 /// [`StepConfig::line_substeps`] (fewer than the step's substeps, no override of its own), holds
 /// one of the `attached` particles (sorted slots, see
@@ -84,21 +94,49 @@ pub(crate) fn keeps_step_substeps(
     config: &StepConfig,
     unset: f64,
 ) -> bool {
-    match config.line_substeps {
-        Some(n) if n < config.substeps && island.settings.is_none() => {
-            if !island.takes_line_substeps() {
-                return false;
-            }
-            if holds_any(&island.particles, attached) {
-                return true;
-            }
-            let h_state = island.state_substep_or(unset);
-            let h_line = config.timestep / n.max(1) as f64;
-            let ranges = (range(&island.sticks), range(&island.pins));
-            hit_hard(arrays, ranges, (h_state, h_line, config.timestep))
-        }
-        _ => false,
+    let Some(n) = line_substep_count(config) else {
+        return false;
+    };
+    if n >= config.substeps || island.settings.is_some() || !island.takes_line_substeps() {
+        return false;
     }
+    if holds_any(&island.particles, attached) {
+        return true;
+    }
+    let h_state = island.state_substep_or(unset);
+    let h_line = config.timestep / n as f64;
+    let ranges = (range(&island.sticks), range(&island.pins));
+    hit_hard(arrays, ranges, (h_state, h_line, config.timestep))
+}
+
+/// The substeps a step of `config` gives an island that takes
+/// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) `Some(n)`: `n` (at least 1),
+/// more where a substep would be longer than [`LINE_SUBSTEP_LONGEST`], never more than
+/// `config.substeps`; `None` without `line_substeps`.
+///
+/// ```
+/// use bevy_verlet_physics::solver::{line_substeps::line_substep_count, StepConfig};
+/// let at_64_hz = StepConfig { line_substeps: Some(2), ..StepConfig::default() };
+/// assert_eq!(line_substep_count(&at_64_hz), Some(2));
+/// // A 2 Hz step: substeps of 1/64 s at most, no more than the step's 8.
+/// let at_2_hz = StepConfig { timestep: 0.5, ..at_64_hz };
+/// assert_eq!(line_substep_count(&at_2_hz), Some(8));
+/// let at_16_hz = StepConfig { timestep: 1.0 / 16.0, ..at_64_hz };
+/// assert_eq!(line_substep_count(&at_16_hz), Some(4));
+/// ```
+pub fn line_substep_count(config: &StepConfig) -> Option<u32> {
+    let n = config.line_substeps?.max(1);
+    if n >= config.substeps {
+        return Some(n);
+    }
+    // (The margin keeps a step of exactly that length at one substep.)
+    let fitting = (config.timestep / LINE_SUBSTEP_LONGEST * (1.0 - 1e-9)).ceil();
+    let needed = if fitting >= 1.0 {
+        fitting.min(u32::MAX as f64) as u32
+    } else {
+        1
+    };
+    Some(n.max(needed).min(config.substeps))
 }
 
 /// Whether one of the sorted `slots` is in `particles`.
