@@ -1,6 +1,6 @@
 //! Fuzzing through the ECS: random particle/stick graphs and random operations (spawn, despawn,
 //! pin, unpin, move pins, tear, set positions, velocities and masses — NaN and ±∞ included —
-//! change the configuration), with invariants checked after every fixed step:
+//! change the configuration, `line_substeps` included), with invariants checked after every fixed step:
 //!
 //! * no panic;
 //! * every simulated particle is finite, in the solver and in its component (and they agree);
@@ -83,6 +83,7 @@ enum Op {
         gravity: Vec3,
         despawn_torn: bool,
         method: SolveMethod,
+        line_substeps: Option<u32>,
     },
 }
 
@@ -287,14 +288,27 @@ fn configure(inputs: Inputs) -> impl Strategy<Value = Op> {
         Just(SolveMethod::Lines),
         Just(SolveMethod::Hierarchy),
     ];
-    (1u32..16, 1u32..4, damping, gravity, any::<bool>(), method).prop_map(
-        |(substeps, iterations, damping, gravity, despawn_torn, method)| Op::Configure {
-            substeps,
-            iterations,
-            damping,
-            gravity,
-            despawn_torn,
-            method,
+    // (`Some(0)` is taken as 1; more than the step's substeps is allowed too.)
+    let line_substeps = prop_oneof![
+        2 => Just(None),
+        1 => Just(Some(0)),
+        1 => Just(Some(1)),
+        2 => Just(Some(2)),
+        1 => Just(Some(24)),
+    ];
+    let settings = (1u32..16, 1u32..4, damping, gravity);
+    let choices = (any::<bool>(), method, line_substeps);
+    (settings, choices).prop_map(
+        |((substeps, iterations, damping, gravity), (despawn_torn, method, line_substeps))| {
+            Op::Configure {
+                substeps,
+                iterations,
+                damping,
+                gravity,
+                despawn_torn,
+                method,
+                line_substeps,
+            }
         },
     )
 }
@@ -546,6 +560,7 @@ impl Harness {
                 gravity,
                 despawn_torn,
                 method,
+                line_substeps,
             } => {
                 self.app
                     .insert_resource(VerletConfig {
@@ -554,6 +569,7 @@ impl Harness {
                         damping: *damping,
                         despawn_torn_sticks: *despawn_torn,
                         method: *method,
+                        line_substeps: *line_substeps,
                         ..default()
                     })
                     .insert_resource(Gravity(*gravity));
