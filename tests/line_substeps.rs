@@ -104,6 +104,48 @@ fn lines_take_their_own_substeps_beside_a_swept_cloth() {
     );
 }
 
+/// A fixed step longer than 1/64 s gives lines more substeps, none longer than 1/64 s
+/// (`LINE_SUBSTEP_LONGEST`), up to the step's: at 30 Hz a chain beside a swept cloth takes 3
+/// of the step's 8 — not a divisor of 8 — the same bits as in a run of its own at 3 × 1; at
+/// 16 Hz 4, at 4 Hz the step's 8.
+#[test]
+fn a_long_fixed_step_gives_lines_more_substeps() {
+    for (hz, expected) in [(64.0, 2u32), (30.0, 3), (16.0, 4), (4.0, 8)] {
+        let config = StepConfig {
+            timestep: 1.0 / hz,
+            ..two()
+        };
+        let mut both = Solver::default();
+        let tip = chain(&mut both, 20, 1.0, 10.0);
+        cloth(&mut both);
+        both.organize();
+        let mut alone = Solver::default();
+        chain(&mut alone, 20, 1.0, 10.0);
+        alone.organize();
+        let solo = StepConfig {
+            substeps: expected,
+            ..config
+        };
+        for _ in 0..(2.0 * hz) as usize {
+            both.step(&config);
+            alone.step(&solo);
+        }
+        let substep = config.timestep / expected as f64;
+        assert_eq!(both.state_substep_of(tip), Some(substep), "{hz} Hz");
+        assert!(substep <= 1.0 / 64.0 || expected == config.substeps);
+        let bits = |solver: &Solver| {
+            let island = solver.islands.of_particle(tip).unwrap();
+            let first = solver.islands.list[island].particles.start as usize;
+            solver.particles.position[first..first + 21]
+                .iter()
+                .flat_map(|p| p.to_array().map(f64::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&both), bits(&alone), "{hz} Hz");
+        assert!(max_strain(&alone) < 1e-6, "{hz} Hz: {}", max_strain(&alone));
+    }
+}
+
 /// An island's own settings win over `line_substeps`.
 #[test]
 fn an_island_override_wins_over_line_substeps() {

@@ -72,12 +72,12 @@ pub const HIT_ABOVE: f64 = 1.0;
 /// most 0.009.
 pub const SPRING_STIFFER_THAN: f64 = 3.0;
 
-/// The longest substep (s) of [`StepConfig::line_substeps`](super::StepConfig::line_substeps):
-/// Bevy's default fixed step, 1/64 s. A longer fixed step gives its lines more substeps, up to
-/// the step's own ([`line_substep_count`]): their solve is exact at any substep, but their
-/// motion is not — a 1 m pendulum's period at 2 Hz with 2 line substeps of 0.25 s was 2.7 %
-/// short, 1.1 % at the step's 8 (`very_small_and_very_large_fixed_timesteps`,
-/// `tests/hard_cases.rs`).
+/// The longest substep (s) of [`StepConfig::line_substeps`](super::StepConfig::line_substeps),
+/// unless that takes more than the step's own substeps: Bevy's default fixed step, 1/64 s. A
+/// longer fixed step gives its lines more substeps, up to the step's own
+/// ([`line_substep_count`]): their solve is exact at any substep, but their motion is not — a
+/// 1 m pendulum's period at 2 Hz with 2 line substeps of 0.25 s was 2.7 % short, 0.098 % at
+/// the step's 8 (`very_small_and_very_large_fixed_timesteps`, `tests/hard_cases.rs`).
 pub const LINE_SUBSTEP_LONGEST: f64 = 1.0 / 64.0;
 
 /// [`Island::keeps_step_substeps`] for this step: whether `island`, which could take

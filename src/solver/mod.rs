@@ -157,7 +157,8 @@ pub struct StepConfig {
     /// island; `Some(0)` is taken as 1. Their solve is exact at any substep count, so fewer
     /// substeps cost them no stretch, only accuracy in time; in a step where they are hit hard
     /// they take `substeps` ([`line_substeps`]), and a step longer than 1/64 s gives them more,
-    /// so that none is longer than that ([`line_substeps::line_substep_count`]). At 2 the report's pendulums, double pendulum
+    /// so that none is longer than that, up to `substeps`
+    /// ([`line_substeps::line_substep_count`]). At 2 the report's pendulums, double pendulum
     /// and hanging chain take a quarter of the time of 8 substeps of lines, the swinging chains
     /// about half (the crate README, "Configuration"). Iterations stay the step's.
     ///

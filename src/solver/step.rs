@@ -17,7 +17,7 @@ use super::colliders::constrain_range;
 use super::direct::{LineRef, LineScratch, LineSolve, LineViews};
 use super::hierarchy::AFTER_SWEEP_FROM_LEVEL;
 use super::integrate::{integrate_range, resubstep};
-use super::line_substeps::keeps_step_substeps;
+use super::line_substeps::{keeps_step_substeps, line_substep_count};
 use super::lines::Method;
 use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
@@ -1028,8 +1028,8 @@ fn due<'a>(
     // (So are those of islands that take `line_substeps`.)
     let configured = |own| global.for_config(super::islands::configured(&global.config, own));
     let shared = configured(None);
-    let line_own = global.config.line_substeps.map(|substeps| IslandSettings {
-        substeps: substeps.max(1),
+    let line_own = line_substep_count(&global.config).map(|substeps| IslandSettings {
+        substeps,
         iterations: global.config.iterations,
     });
     let lines = line_own.and_then(|own| configured(Some(own)));
