@@ -76,15 +76,9 @@ enum Op {
     SetPosition(usize, Vec3),
     SetVelocity(usize, Vec3),
     SetMass(usize, f32),
-    Configure {
-        substeps: u32,
-        iterations: u32,
-        damping: f32,
-        gravity: Vec3,
-        despawn_torn: bool,
-        method: SolveMethod,
-        line_substeps: Option<u32>,
-    },
+    /// A new configuration (substeps, iterations, damping, despawning torn sticks, solve method,
+    /// `line_substeps`; the rest default) and gravity.
+    Configure(Box<VerletConfig>, Vec3),
 }
 
 #[derive(Clone, Debug)]
@@ -300,15 +294,16 @@ fn configure(inputs: Inputs) -> impl Strategy<Value = Op> {
     let choices = (any::<bool>(), method, line_substeps);
     (settings, choices).prop_map(
         |((substeps, iterations, damping, gravity), (despawn_torn, method, line_substeps))| {
-            Op::Configure {
+            let config = VerletConfig {
                 substeps,
                 iterations,
                 damping,
-                gravity,
-                despawn_torn,
+                despawn_torn_sticks: despawn_torn,
                 method,
                 line_substeps,
-            }
+                ..default()
+            };
+            Op::Configure(Box::new(config), gravity)
         },
     )
 }
@@ -553,25 +548,9 @@ impl Harness {
                     particle.inverse_mass = *w;
                 }
             }
-            Op::Configure {
-                substeps,
-                iterations,
-                damping,
-                gravity,
-                despawn_torn,
-                method,
-                line_substeps,
-            } => {
+            Op::Configure(config, gravity) => {
                 self.app
-                    .insert_resource(VerletConfig {
-                        substeps: *substeps,
-                        iterations: *iterations,
-                        damping: *damping,
-                        despawn_torn_sticks: *despawn_torn,
-                        method: *method,
-                        line_substeps: *line_substeps,
-                        ..default()
-                    })
+                    .insert_resource(VerletConfig::clone(config))
                     .insert_resource(Gravity(*gravity));
             }
         }
