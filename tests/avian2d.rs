@@ -232,7 +232,7 @@ fn a_free_rope_and_its_body_keep_their_momentum_whatever_the_rope_substeps() {
     // anchor is put there, its momentum not handed on (README, known gaps).
     let before = Vec2::new(0.0, 0.5);
     for settings in [None, Some(IslandOverride::new(2, 1))] {
-        let (after, highest, turned, _) = free_rope_swinging_a_box(settings, 0.001, None);
+        let (after, highest, turned, _) = free_rope_swinging_a_box(settings, 0.001, (None, None));
         assert!(
             highest < 0.25 * 1.002,
             "{settings:?}: energy rose to {highest} J"
@@ -253,7 +253,7 @@ fn a_heavy_knot_riding_a_spinning_box_keeps_the_momentum() {
     // The same with a 0.1 kg knot: riding the turning anchor, the knot is met half way (a
     // zero-length joint) instead of being put on it, so what its turning path takes the box
     // gives (before: 11 % of the momentum lost in the second; now 2e-6).
-    let (after, _, _, _) = free_rope_swinging_a_box(None, 0.1, None);
+    let (after, _, _, _) = free_rope_swinging_a_box(None, 0.1, (None, None));
     let before = Vec2::new(0.0, 0.5);
     let error = (after - before).length() / before.length();
     assert!(error < 1e-3, "momentum {before} → {after}");
@@ -265,22 +265,42 @@ fn a_rope_on_a_body_steps_with_it_under_line_substeps() {
     // attached to a body: it takes the body's 8, so the heavy knot above keeps the momentum
     // as well (with 2 of its own it lost 12 %: from a longer substep the knot is put on its
     // anchor, not met half way).
-    let (after, _, _, substeps) = free_rope_swinging_a_box(None, 0.1, Some(2));
+    let (after, _, _, substeps) = free_rope_swinging_a_box(None, 0.1, (Some(2), None));
     assert_eq!(substeps, 8.0);
     let before = Vec2::new(0.0, 0.5);
     let error = (after - before).length() / before.length();
     assert!(error < 1e-3, "momentum {before} → {after}");
 }
 
+#[test]
+fn a_rope_on_a_body_steps_with_the_bodies_beside_a_busier_island() {
+    // The bodies take as many substeps as the busiest island: a particle far away given 32 by
+    // an `IslandOverride` makes the box take 32, and the rope tied to it takes them too
+    // (`Island::steps_with_bodies`), so the heavy knot keeps the momentum (with the step's 8
+    // against the box's 32 it lost 11 %: (0, 0.5) → (−0.028, 0.446)) — also under
+    // `line_substeps`.
+    let busier = Some(IslandOverride::new(32, 1));
+    for line_substeps in [None, Some(2)] {
+        let (after, highest, _, substeps) =
+            free_rope_swinging_a_box(None, 0.1, (line_substeps, busier));
+        assert_eq!(substeps, 32.0, "{line_substeps:?}");
+        assert!(highest < 0.25 * 1.002, "energy rose to {highest} J");
+        let before = Vec2::new(0.0, 0.5);
+        let error = (after - before).length() / before.length();
+        assert!(error < 1e-3, "momentum {before} → {after}");
+    }
+}
+
 /// No gravity: a free 1 kg box (10 cm) at rest, a 5-link rope (0.1 kg per particle, the one
 /// tied to the box `knot_mass`) attached to it by its first particle, the others moving
-/// sideways at 1 m/s, `settings` on the rope, `line_substeps` in the config; 1 s. Returns the
+/// sideways at 1 m/s, `settings` on the rope, `line_substeps` in the config, `busier` on a
+/// particle far away (which keeps the step at 8 substeps at least); 1 s. Returns the
 /// momentum of rope and box at the end (0.5 kg·m/s along Y at the start), their largest energy
 /// (0.25 J at the start), how far the box turned and the rope's substeps in the last step.
 fn free_rope_swinging_a_box(
     settings: Option<IslandOverride>,
     knot_mass: f32,
-    line_substeps: Option<u32>,
+    (line_substeps, busier): (Option<u32>, Option<IslandOverride>),
 ) -> (Vec2, f64, f32, f64) {
     let mut app = app(Vec2::ZERO);
     app.world_mut().resource_mut::<VerletConfig>().line_substeps = line_substeps;
@@ -312,7 +332,10 @@ fn free_rope_swinging_a_box(
     if let Some(settings) = settings {
         app.world_mut().entity_mut(first).insert(settings);
     }
-    keep_the_default_substeps(&mut app);
+    let far = keep_the_default_substeps(&mut app);
+    if let Some(busier) = busier {
+        app.world_mut().entity_mut(far).insert(busier);
+    }
     // Each rope particle's mass and velocity at the end of the step: the solver's `(x − x*)/h`,
     // `h` its island's substep (a component's `velocity(dt)` is the step's mean).
     let rope_motion = |app: &App| -> Vec<(f64, glam::DVec3)> {
@@ -376,11 +399,11 @@ fn momentum_is_kept_when_a_particle_taking_fewer_substeps_hits_a_body() {
 
 /// Adds a particle drifting far away, so the step keeps its 8 substeps (the step takes as many
 /// as its busiest island) while the island with an `IslandOverride` takes its own.
-fn keep_the_default_substeps(app: &mut App) {
+fn keep_the_default_substeps(app: &mut App) -> Entity {
     spawn(
         app,
         Particle::new(Vec3::new(100.0, 100.0, 0.0)).with_velocity(Vec3::X, DT),
-    );
+    )
 }
 
 /// No gravity: a 0.5 kg particle (with `settings`) at 5 m/s hits a resting 1 kg ball

@@ -24,7 +24,9 @@
 //! anchor, a body moved by its own engine between steps) is closed by putting the particle on
 //! the anchor, as is every gap from an island with fewer substeps than the bodies.
 //!
-//! An island that takes fewer substeps than the bodies (an `IslandOverride`, `line_substeps`) moves the body's
+//! An island that takes fewer substeps than the bodies (its own `IslandOverride`; under
+//! `line_substeps`, and beside an island that takes more, an attached island steps with the
+//! bodies: [`Island::steps_with_bodies`](super::Island::steps_with_bodies)) moves the body's
 //! anchor the same way, and the velocity that correction gives over the body's shorter substep
 //! is brought back to what the constraints solved for (`Δx / h`, momentum `J / h`) by a
 //! velocity impulse after the body's substep (`AttachmentScratch::velocity_corrections`).

@@ -135,6 +135,12 @@ pub struct Island {
     /// particle attached to another engine's body ([`Solver::attached`](super::Solver::attached)),
     /// so it takes the step's substeps in this step (see [`line_substeps`](super::line_substeps)).
     pub keeps_step_substeps: bool,
+    /// Set by [`Solver::begin_step`](super::Solver::begin_step) for an awake island without
+    /// settings of its own that holds a particle attached to another engine's body
+    /// ([`Solver::attached`](super::Solver::attached)), where the step takes more substeps than
+    /// its own (an island given more by an [`IslandSettings`] override): that count, which
+    /// the bodies take, so that it steps with them; `None` otherwise.
+    pub steps_with_bodies: Option<u32>,
 }
 
 impl Island {
@@ -184,15 +190,21 @@ impl Island {
     /// assert_eq!(cloth.own_settings(&step), None);
     /// ```
     pub fn own_settings(&self, step: &super::StepConfig) -> Option<IslandSettings> {
-        self.settings.or_else(|| match line_substep_count(step) {
-            Some(substeps) if self.takes_line_substeps() && !self.keeps_step_substeps => {
-                Some(IslandSettings {
-                    substeps,
-                    iterations: step.iterations,
-                })
-            }
-            _ => None,
-        })
+        let with_bodies = self.steps_with_bodies.map(|substeps| IslandSettings {
+            substeps,
+            iterations: step.iterations,
+        });
+        self.settings
+            .or(with_bodies)
+            .or_else(|| match line_substep_count(step) {
+                Some(substeps) if self.takes_line_substeps() && !self.keeps_step_substeps => {
+                    Some(IslandSettings {
+                        substeps,
+                        iterations: step.iterations,
+                    })
+                }
+                _ => None,
+            })
     }
 
     /// Whether [`StepConfig::line_substeps`](super::StepConfig::line_substeps) applies to it: it
@@ -801,6 +813,7 @@ impl Solver {
             calm_time,
             state_substep: 0.0,
             keeps_step_substeps: false,
+            steps_with_bodies: None,
         });
         islands.lines.clear();
         islands.hierarchies.clear();

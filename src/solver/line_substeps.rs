@@ -140,7 +140,7 @@ pub fn line_substep_count(config: &StepConfig) -> Option<u32> {
 }
 
 /// Whether one of the sorted `slots` is in `particles`.
-fn holds_any(particles: &Range<u32>, slots: &[u32]) -> bool {
+pub(crate) fn holds_any(particles: &Range<u32>, slots: &[u32]) -> bool {
     let first = slots.partition_point(|&slot| slot < particles.start);
     slots.get(first).is_some_and(|&slot| slot < particles.end)
 }

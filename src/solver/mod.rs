@@ -277,8 +277,9 @@ pub struct Solver {
     pub island_methods: Vec<(u32, Method)>,
     /// Particle slots attached to another engine's bodies in this step (set by
     /// [`External::begin_step`]; in any order, a slot that is no particle is ignored): their
-    /// islands take the step's substeps, not [`StepConfig::line_substeps`], so that they step
-    /// with the bodies (see [`line_substeps`]).
+    /// islands step with the bodies — the step's substeps, not [`StepConfig::line_substeps`]
+    /// (see [`line_substeps`]), or more where another island's override takes more, as the
+    /// bodies do ([`Island::steps_with_bodies`]) — unless they have an override of their own.
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};

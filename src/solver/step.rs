@@ -17,7 +17,7 @@ use super::colliders::constrain_range;
 use super::direct::{LineRef, LineScratch, LineSolve, LineViews};
 use super::hierarchy::AFTER_SWEEP_FROM_LEVEL;
 use super::integrate::{integrate_range, resubstep};
-use super::line_substeps::{keeps_step_substeps, line_substep_count};
+use super::line_substeps::{holds_any, keeps_step_substeps, line_substep_count};
 use super::lines::Method;
 use super::parallel::{
     Executor, PARALLEL_CHUNK_STICKS, PARALLEL_MIN_PARTICLES_PER_JOB, PARALLEL_MIN_STICK_ITERATIONS,
@@ -28,7 +28,7 @@ use super::sticks::{SweepOrder, relax_stick_range};
 use super::symmetric::{in_pairs, mass_ratio, nth_in, order_of};
 use super::tethers::relax_tether_range;
 use super::tree::TreeSolve;
-use super::{Island, IslandSettings, Solver, StepConfig, Substep, tear};
+use super::{Island, IslandSettings, Particles, Solver, StepConfig, Substep, tear};
 use glam::DVec3;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -241,20 +241,44 @@ impl Solver {
             let arrays = (&self.particles, &self.sticks, &self.pins);
             island.keeps_step_substeps =
                 keeps_step_substeps(island, arrays, &self.attached, config, unset);
+            island.steps_with_bodies = None;
             let own = island
                 .own_settings(config)
                 .map(|own| super::islands::configured(config, Some(own)));
             count = count.max(own.map_or(config.substeps, |c| c.substeps));
-            let h = own.map_or(global, |c| c.substep());
-            let from = island.state_substep_or(unset);
-            if from != h {
-                let particles = range(&island.particles);
-                resubstep(&mut self.particles, particles, config.gravity, from, h);
+            if island.settings.is_none() && holds_any(&island.particles, &self.attached) {
+                // (Its substep waits for the step's count: see `step_with_bodies`.)
+                continue;
             }
-            island.state_substep = h;
+            let h = own.map_or(global, |c| c.substep());
+            resubstep_island(&mut self.particles, island, config.gravity, (unset, h));
         }
+        self.step_with_bodies(config, count, unset);
         self.current = Some(*config);
         count
+    }
+
+    /// Gives every awake island without settings of its own that holds an attached particle
+    /// ([`Solver::attached`]) the step's `count` of substeps, which the bodies take — more than
+    /// its own where another island has an override with more
+    /// ([`Island::steps_with_bodies`]): the coupling keeps momentum exactly only substep by
+    /// substep (see [`attachments`](super::attachments)).
+    fn step_with_bodies(&mut self, config: &StepConfig, count: u32, unset: f64) {
+        if self.attached.is_empty() {
+            return;
+        }
+        for island in &mut self.islands.list.0 {
+            if island.asleep
+                || island.settings.is_some()
+                || !holds_any(&island.particles, &self.attached)
+            {
+                continue;
+            }
+            island.steps_with_bodies = (count > config.substeps).then_some(count);
+            let own = island.own_settings(config);
+            let h = super::islands::configured(config, own).substep();
+            resubstep_island(&mut self.particles, island, config.gravity, (unset, h));
+        }
     }
 
     /// Wakes the island of particle `slot` before the next step (a particle was moved, a
@@ -1042,6 +1066,21 @@ fn due<'a>(
         };
         substep.map(|s| (island, global.paired_if(island.symmetric, s)))
     })
+}
+
+/// Re-expresses `island`'s Verlet state for a substep of `h` (from its own, or `unset` where it
+/// has none yet; see [`resubstep`]) and records it.
+fn resubstep_island(
+    particles: &mut Particles,
+    island: &mut Island,
+    gravity: DVec3,
+    (unset, h): (f64, f64),
+) {
+    let from = island.state_substep_or(unset);
+    if from != h {
+        resubstep(particles, range(&island.particles), gravity, from, h);
+    }
+    island.state_substep = h;
 }
 
 pub(crate) fn range(r: &Range<u32>) -> Range<usize> {
