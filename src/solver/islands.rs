@@ -96,7 +96,8 @@ pub struct Island {
     /// Tethers.
     pub tethers: Range<u32>,
     /// Overrides of the step's substeps and iterations (what it takes is
-    /// [`Island::own_settings`]: these, else `line_substeps` where that applies).
+    /// [`Island::own_settings`]: these, else [`Island::steps_with_bodies`], else
+    /// `line_substeps` where that applies).
     pub settings: Option<IslandSettings>,
     /// How its sticks are solved (resolved by [`Solver::organize`]: never [`Method::Auto`]
     /// there; an island left at `Auto` is swept).
@@ -133,19 +134,23 @@ pub struct Island {
     /// stick of it would stretch beyond [`HIT_ABOVE`](super::line_substeps::HIT_ABOVE) in one
     /// such substep, or have its ends cross), holds a spring too stiff for them, or has a
     /// particle attached to another engine's body ([`Solver::attached`](super::Solver::attached)),
-    /// so it takes the step's substeps in this step (see [`line_substeps`](super::line_substeps)).
+    /// so it takes the step's substeps in this step — or, attached, the bodies' count where that
+    /// is more ([`Island::steps_with_bodies`]; see [`line_substeps`](super::line_substeps)).
     pub keeps_step_substeps: bool,
     /// Set by [`Solver::begin_step`](super::Solver::begin_step) for an awake island without
     /// settings of its own that holds a particle attached to another engine's body
-    /// ([`Solver::attached`](super::Solver::attached)), where the step takes more substeps than
-    /// its own (an island given more by an [`IslandSettings`] override): that count, which
-    /// the bodies take, so that it steps with them; `None` otherwise.
+    /// ([`Solver::attached`](super::Solver::attached)), where the step's global count of
+    /// substeps (its busiest island's, which the bodies take) exceeds
+    /// [`StepConfig::substeps`](super::StepConfig::substeps) — an island given more by an
+    /// [`IslandSettings`] override, or `line_substeps` above `substeps`: that count, so that it
+    /// steps with the bodies; `None` otherwise. [`Island::own_settings`] takes it after
+    /// [`Island::settings`] and before `line_substeps`.
     pub steps_with_bodies: Option<u32>,
 }
 
 impl Island {
     /// The step's settings with this island's own applied ([`Island::own_settings`]: its
-    /// overrides, or `line_substeps`; substeps and iterations ≥ 1).
+    /// overrides, or the bodies' count, or `line_substeps`; substeps and iterations ≥ 1).
     ///
     /// ```
     /// use bevy_verlet_physics::solver::{Island, IslandSettings, StepConfig};
@@ -176,6 +181,7 @@ impl Island {
     }
 
     /// Its substeps and iterations where they are not the step's: its [`Island::settings`], else
+    /// [`Island::steps_with_bodies`] (the bodies' count), else
     /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) (at least 1, more for a
     /// step longer than 1/64 s: [`line_substep_count`]) if it
     /// [`Island::takes_line_substeps`] and does not [`Island::keeps_step_substeps`] in this step.

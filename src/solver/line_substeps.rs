@@ -16,7 +16,8 @@
 //! with it and is not hit; a pin jerked away from its rope is. An island with a spring too
 //! stiff for the longer substep ([`SPRING_STIFFER_THAN`]) keeps the step's count in every step,
 //! and so does one attached to another engine's body
-//! ([`Solver::attached`](super::Solver::attached)): it steps with the body, whose coupling
+//! ([`Solver::attached`](super::Solver::attached); more where the bodies take more,
+//! [`Island::steps_with_bodies`](super::Island::steps_with_bodies)): it steps with the body, whose coupling
 //! keeps momentum exactly only substep by substep (a 0.1 kg knot of a rope riding a spinning
 //! 1 kg avian box lost 12 % of the momentum at 2 substeps, `tests/avian2d.rs`).
 //!

@@ -1049,19 +1049,25 @@ fn due<'a>(
 ) -> impl Iterator<Item = (&'a Island, Substep)> + 'a {
     // (Islands without settings of their own all take the step's substep: computed once, not
     // once per island — its division and `exp` were most of the cost of walking the islands.)
-    // (So are those of islands that take `line_substeps`.)
+    // (So are those of islands that take `line_substeps`, and of islands that step with the
+    // bodies, `Island::steps_with_bodies`.)
     let configured = |own| global.for_config(super::islands::configured(&global.config, own));
     let shared = configured(None);
-    let line_own = line_substep_count(&global.config).map(|substeps| IslandSettings {
+    let own_of = |substeps| IslandSettings {
         substeps,
         iterations: global.config.iterations,
-    });
+    };
+    let line_own = line_substep_count(&global.config).map(own_of);
     let lines = line_own.and_then(|own| configured(Some(own)));
+    let bodies_own = own_of(global.count);
+    let more = global.count > global.config.substeps;
+    let with_bodies = more.then(|| configured(Some(bodies_own)));
     islands.iter().filter_map(move |island| {
         let substep = match island.own_settings(&global.config) {
             _ if island.asleep => None,
             None => shared,
             Some(own) if Some(own) == line_own => lines,
+            Some(own) if own == bodies_own && with_bodies.is_some() => with_bodies.flatten(),
             Some(own) => configured(Some(own)),
         };
         substep.map(|s| (island, global.paired_if(island.symmetric, s)))
