@@ -72,8 +72,8 @@ pub struct VerletConfig {
     /// a rope no stretch, only accuracy in time: at `Some(2)` the report's chains stay within
     /// 10⁻⁹ of their lengths, a 120° pendulum's period is off by −0.008 % and a double pendulum
     /// loses 0.2 % of its energy over 60 s, at 0.27–0.42× the time of 8 swept substeps (the
-    /// 200-link chain swinging: 1.32–1.36×; the 1000:1 chain whipping from horizontal:
-    /// 1.94–2.00×, 4.11–4.33× at 8; see the crate README, "Configuration"). Cloth, ragdolls and
+    /// 200-link chain swinging: 1.32–1.33×; the 1000:1 chain whipping from horizontal:
+    /// 1.44–1.47×, 4.08–4.10× at 8; see the crate README, "Configuration"). Cloth, ragdolls and
     /// structures keep `substeps`. In a step where a rope is hit hard — a stick, its ends moving
     /// on at their velocities (a pinned end towards its target), would stretch by more than its
     /// length within one of its substeps, or have its ends cross — it takes `substeps`

@@ -164,8 +164,9 @@ fn an_island_override_wins_over_line_substeps() {
 }
 
 /// The report's swinging 1000:1 chain (100 links, 1 m, from horizontal, 5 s) at 2 substeps:
-/// within 10⁻⁶ of its lengths throughout, as at 8, in fewer Newton passes (measured: 3417
-/// against 7628 at 8, 0.45×), and never hit hard enough to take 8 in a step.
+/// within 10⁻⁶ of its lengths throughout, as at 8, in under a third of the Newton passes
+/// (measured: 2175 against 7505 at 8; before the SHAKE backoff, `SHAKE_BACKOFF_LIMIT`, 3417
+/// against 7628, 0.45×), and never hit hard enough to take 8 in a step.
 #[test]
 fn a_whipping_chain_at_two_substeps_stays_unstretched_in_fewer_passes() {
     let run = |config: &StepConfig| {
@@ -193,7 +194,7 @@ fn a_whipping_chain_at_two_substeps_stays_unstretched_in_fewer_passes() {
     assert!(at_two < 1e-6, "strain {at_two}");
     assert!(at_eight < 1e-6, "strain {at_eight}");
     assert!(
-        passes_two * 2 < passes_eight,
+        passes_two * 3 < passes_eight,
         "{passes_two} against {passes_eight}"
     );
 }

@@ -407,6 +407,41 @@ pub const WARM_START_REACH: f64 = 2.0;
 /// C prototype, `report/prototypes/whip_substep.c`, mode `kkt-warm` at `-DTIP=100000.0`).
 pub const FULL_NEWTON_AFTER: u32 = 16;
 
+/// After a SHAKE try fails, a line is projected for the next 1, 2, 4, … substeps — doubling
+/// with each failed try in a row, up to `2^(this − 1)` (128) — before SHAKE is tried again; a
+/// converged SHAKE starts over at 1. A line whose links turn too far for SHAKE in substep after
+/// substep (a chain whipping round) stops paying for tries that fail (up to [`SHAKE_PASSES`]
+/// passes each), while one that fails now and then is tried again in the next substep but one,
+/// as before. Measured (scratch builds, the solver core's 5 s from horizontal, best of 9, no
+/// damping): the 1000:1 chain at 2 substeps 3417 → 2175 Newton passes, 11.5–12.2 → 8.8–8.9 ms
+/// (a wait of at most 8 substeps: 10.6 ms; 32: 10.0 ms), at 8 substeps 7628 → 7505 passes,
+/// 25.4–25.6 → 25.2–25.4 ms; the 200-link chain 2096 → 2105 and 5085 → 4957 passes, 15.3 ms
+/// either way at 2, 32.4–33.8 → 31.8–32.0 ms at 8; the double pendulum's passes and energies
+/// unchanged at 1, 2 and 8 substeps. What the projected substeps cost is energy: the whipping
+/// chain ends the 5 s at 2 substeps with −5050 J instead of −4456 J (its potential scale is
+/// 10.3 kJ), at 8 with −1528 J instead of −1521 J.
+pub const SHAKE_BACKOFF_LIMIT: u8 = 8;
+
+/// A line's SHAKE backoff (see [`SHAKE_BACKOFF_LIMIT`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct ShakeBackoff {
+    /// Substeps left before SHAKE is tried again.
+    pub wait: u8,
+    /// SHAKE tries that failed in a row (at most [`SHAKE_BACKOFF_LIMIT`]).
+    pub failures: u8,
+}
+
+impl ShakeBackoff {
+    /// After one more failed try.
+    fn failed(self) -> Self {
+        let failures = (self.failures + 1).min(SHAKE_BACKOFF_LIMIT);
+        Self {
+            wait: 1 << (failures - 1),
+            failures,
+        }
+    }
+}
+
 /// How a line is solved in one substep (decided at its start).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) enum LineMode {
@@ -416,6 +451,8 @@ pub(crate) enum LineMode {
     /// As [`LineMode::Project`], after SHAKE did not converge in this substep: the next substep
     /// is projected too, without trying SHAKE — links that turned too far for it in one
     /// substep mostly do in the next, and a failed try costs up to [`SHAKE_PASSES`] passes.
+    /// (So for trees; a line waits longer after failed tries in a row, see
+    /// [`SHAKE_BACKOFF_LIMIT`].)
     /// Measured on the report's swinging chains (8 × 1, 5 s from horizontal, no damping;
     /// instructions by callgrind): 1000:1 chain 16 409 → 14 285 Newton passes, −11.8 %
     /// instructions; 200 links 7461 → 6613 passes, −9.4 %; largest strain below 10⁻⁹ either
@@ -461,6 +498,8 @@ pub(crate) struct LineScratch {
     pub warm: Vec<f64>,
     /// At a line's first stick: how the line is solved this substep.
     pub mode: Vec<LineMode>,
+    /// At a line's first stick: when SHAKE is tried again (see [`SHAKE_BACKOFF_LIMIT`]).
+    pub backoff: Vec<ShakeBackoff>,
     /// Per tree node (see [`tree`](super::tree)).
     pub trees: Vec<super::tree::Node>,
     /// Per tree node, for a curvature pass (see [`tree`](super::tree)).
@@ -510,6 +549,8 @@ impl LineScratch {
         // (Cleared: a line rebuilt at the offset of one that fell back must not inherit it.)
         self.mode.clear();
         self.mode.resize(n, LineMode::Project);
+        self.backoff.clear();
+        self.backoff.resize(n, ShakeBackoff::default());
     }
 }
 
@@ -522,6 +563,7 @@ pub(crate) struct LineViews<'a> {
     pub rhs: SharedSlice<'a, f64>,
     pub warm: SharedSlice<'a, f64>,
     pub mode: SharedSlice<'a, LineMode>,
+    pub backoff: SharedSlice<'a, ShakeBackoff>,
     pub trees: SharedSlice<'a, super::tree::Node>,
     pub tree_curvature: SharedSlice<'a, super::tree::TreeCurvature>,
     pub tree_closings: SharedSlice<'a, super::tree::Closing>,
@@ -541,6 +583,7 @@ impl<'a> LineViews<'a> {
             rhs: SharedSlice::new(&mut scratch.rhs),
             warm: SharedSlice::new(&mut scratch.warm),
             mode: SharedSlice::new(&mut scratch.mode),
+            backoff: SharedSlice::new(&mut scratch.backoff),
             trees: SharedSlice::new(&mut scratch.trees),
             tree_curvature: SharedSlice::new(&mut scratch.tree_curvature),
             tree_closings: SharedSlice::new(&mut scratch.tree_closings),
@@ -704,8 +747,14 @@ impl LineSolve<'_, '_> {
         // contract).
         unsafe {
             // (Not right after a fallback, see [`LineMode::FellBack`].)
-            let shake =
-                self.shake && self.scratch.mode.get_unchecked(line.offset) != LineMode::FellBack;
+            // (Not while it waits after failed tries, see [`SHAKE_BACKOFF_LIMIT`].)
+            let backoff = self.scratch.backoff.get_unchecked(line.offset);
+            if backoff.wait > 0 {
+                let wait = backoff.wait - 1;
+                let counted = ShakeBackoff { wait, ..backoff };
+                self.scratch.backoff.set_unchecked(line.offset, counted);
+            }
+            let shake = self.shake && backoff.wait == 0;
             let root = (curvable && !shake)
                 .then(|| self.curvature_root(line))
                 .flatten();
@@ -740,9 +789,12 @@ impl LineSolve<'_, '_> {
                 begun.predicted,
                 false,
             );
+            let backoff = &self.scratch.backoff;
             if converged {
+                backoff.set_unchecked(line.offset, ShakeBackoff::default());
                 return passes;
             }
+            backoff.set_unchecked(line.offset, backoff.get_unchecked(line.offset).failed());
             self.restart_without_shake(line);
             let root = rescuable.then(|| self.curvature_root(line)).flatten();
             // (Measured only where a curvature pass may run, see `project`.)

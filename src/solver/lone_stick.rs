@@ -34,7 +34,9 @@
 //! shared).
 
 use super::StickKind;
-use super::direct::{LineMode, LineRef, LineSolve, SHAKE_MIN_COSINE, STABILISE_ABOVE};
+use super::direct::{
+    LineMode, LineRef, LineSolve, SHAKE_MIN_COSINE, STABILISE_ABOVE, ShakeBackoff,
+};
 
 impl LineSolve<'_, '_> {
     /// Solves `line` in closed form if it is one stick SHAKE applies to (see the module docs):
@@ -56,7 +58,8 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line (this function's contract); `get` and `set`
         // check their bounds.
         unsafe {
-            let shake = self.shake && self.scratch.mode.get(line.offset) != LineMode::FellBack;
+            // (Not while the line waits after failed tries, see `SHAKE_BACKOFF_LIMIT`.)
+            let shake = self.shake && self.scratch.backoff.get(line.offset).wait == 0;
             let applies = self.first_round && self.mirror.is_none() && shake && rigid;
             if !(applies && rest > 0.0 && movable > 0.0) {
                 return None;
@@ -93,6 +96,9 @@ impl LineSolve<'_, '_> {
             // (Later rounds of the substep solve the line by the general SHAKE from here.)
             self.scratch.start.set(line.offset, u / start_length);
             self.scratch.mode.set(line.offset, LineMode::Shake);
+            self.scratch
+                .backoff
+                .set(line.offset, ShakeBackoff::default());
             Some(1)
         }
     }
