@@ -419,8 +419,12 @@ pub const FULL_NEWTON_AFTER: u32 = 16;
 /// either way at 2, 32.4–33.8 → 31.8–32.0 ms at 8; the double pendulum's passes and energies
 /// unchanged at 1, 2 and 8 substeps. What the projected substeps cost is energy: the whipping
 /// chain ends the 5 s at 2 substeps with −5050 J instead of −4456 J (its potential scale is
-/// 10.3 kJ), at 8 with −1528 J instead of −1521 J.
+/// 10.3 kJ), at 8 with −1528 J instead of −1521 J. The wait is counted in substeps: at 2 a
+/// chain that stops whipping may stay projected, losing energy, for up to 1 s.
 pub const SHAKE_BACKOFF_LIMIT: u8 = 8;
+
+// (A wait of `2^(limit − 1)` substeps must fit a `u8`.)
+const _: () = assert!(SHAKE_BACKOFF_LIMIT >= 1 && SHAKE_BACKOFF_LIMIT <= 8);
 
 /// A line's SHAKE backoff (see [`SHAKE_BACKOFF_LIMIT`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -746,7 +750,6 @@ impl LineSolve<'_, '_> {
         // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
         // contract).
         unsafe {
-            // (Not right after a fallback, see [`LineMode::FellBack`].)
             // (Not while it waits after failed tries, see [`SHAKE_BACKOFF_LIMIT`].)
             let backoff = self.scratch.backoff.get_unchecked(line.offset);
             if backoff.wait > 0 {
@@ -1146,7 +1149,8 @@ impl LineSolve<'_, '_> {
             v.kept_lambda.len(),
         ]
         .into_iter()
-        .fold(v.warm.len().min(v.mode.len()), usize::min);
+        .fold(v.warm.len().min(v.mode.len()), usize::min)
+        .min(v.backoff.len());
         let per_particle = v.predicted.len().min(v.kept.len());
         assert!(
             line.offset + m <= scratch && line.particle_offset + m < per_particle,
@@ -1803,5 +1807,25 @@ fn unit_and_length(d: DVec3, s: usize) -> (DVec3, f64) {
         (d / length, length)
     } else {
         (coincident_direction(s), length)
+    }
+}
+
+#[cfg(test)]
+mod backoff_tests {
+    use super::{SHAKE_BACKOFF_LIMIT, ShakeBackoff};
+
+    /// Failed tries in a row wait 1, 2, 4, … substeps, up to `2^(limit − 1)`; the count starts
+    /// over from a reset (a converged SHAKE).
+    #[test]
+    fn waits_double_up_to_the_limit() {
+        let mut backoff = ShakeBackoff::default();
+        let mut waits = Vec::new();
+        for _ in 0..10 {
+            backoff = backoff.failed();
+            waits.push(backoff.wait);
+        }
+        assert_eq!(waits, [1, 2, 4, 8, 16, 32, 64, 128, 128, 128]);
+        assert_eq!(backoff.failures, SHAKE_BACKOFF_LIMIT);
+        assert_eq!(ShakeBackoff::default().failed().wait, 1);
     }
 }

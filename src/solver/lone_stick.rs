@@ -15,8 +15,8 @@
 //! (the root nearer zero, in the form that does not cancel). It is exact where Newton stops
 //! within [`TOLERANCE`](super::direct::TOLERANCE), and it is used where the general solve would
 //! run SHAKE (the turn test squared, so the same up to rounding at its boundary): a rigid,
-//! two-sided stick with a movable end, in the first round of a substep, not right after a
-//! fallback, turning less than [`SHAKE_MIN_COSINE`] allows, its start within
+//! two-sided stick with a movable end, in the first round of a substep, not while its line
+//! waits after failed SHAKE tries (`SHAKE_BACKOFF_LIMIT`), turning less than [`SHAKE_MIN_COSINE`] allows, its start within
 //! `STABILISE_ABOVE` of its length where the start is corrected. It also solves the rare
 //! near-tangent substeps where the general SHAKE may give up (a root exists). Everything else
 //! (compliance, ropes, edits, fast turns) takes the general solve, and so do later rounds of the

@@ -20,8 +20,8 @@
 //! particle, not by its chain of dependent operations), so
 //! where it saves fewer passes it costs time: in a scratch build running it in every projected
 //! substep, the swinging 1000:1 chain took 18 % less time and the 200-link chain (equal masses)
-//! 8 % more. It runs where it pays: in a substep that *begins* projected (right after a SHAKE
-//! fallback, or with a link predicted to turn too far); after SHAKE failed in the same
+//! 8 % more. It runs where it pays: in a substep that *begins* projected (while a line waits
+//! after failed SHAKE tries, or with a link predicted to turn too far); after SHAKE failed in the same
 //! substep only where the line's tension is stiff
 //! ([`CURVATURE_AFTER_SHAKE_ABOVE`](super::CURVATURE_AFTER_SHAKE_ABOVE): the 1000:1 chain's
 //! projections after a failure took 8.6 Gauss–Newton passes each); and where the prediction is within
