@@ -166,7 +166,7 @@ fn step_config(config: &VerletConfig, gravity: &Gravity, time: &Time) -> StepCon
             ratio if ratio.is_nan() => crate::solver::SYMMETRIC_MASS_RATIO,
             ratio => ratio as f64,
         },
-        line_substeps: config.line_substeps.map(|substeps| substeps.max(1)),
+        line_substeps: config.line_substeps,
     }
 }
 

@@ -145,7 +145,6 @@ impl<S: ContactShape> External<S> {
         solver
             .attached
             .extend(self.attachments.iter().map(|a| a.particle));
-        solver.attached.sort_unstable();
         self.contacts = 0;
         self.max_radius = if self.colliders.is_empty() {
             0.0

@@ -196,21 +196,29 @@ impl Island {
     /// assert_eq!(cloth.own_settings(&step), None);
     /// ```
     pub fn own_settings(&self, step: &super::StepConfig) -> Option<IslandSettings> {
+        self.own_settings_for(step, line_substep_count(step))
+    }
+
+    /// [`Island::own_settings`] with the step's [`line_substep_count`] given (computed once
+    /// per step rather than once per island).
+    pub(crate) fn own_settings_for(
+        &self,
+        step: &super::StepConfig,
+        line_count: Option<u32>,
+    ) -> Option<IslandSettings> {
         let with_bodies = self.steps_with_bodies.map(|substeps| IslandSettings {
             substeps,
             iterations: step.iterations,
         });
-        self.settings
-            .or(with_bodies)
-            .or_else(|| match line_substep_count(step) {
-                Some(substeps) if self.takes_line_substeps() && !self.keeps_step_substeps => {
-                    Some(IslandSettings {
-                        substeps,
-                        iterations: step.iterations,
-                    })
-                }
-                _ => None,
-            })
+        self.settings.or(with_bodies).or_else(|| match line_count {
+            Some(substeps) if self.takes_line_substeps() && !self.keeps_step_substeps => {
+                Some(IslandSettings {
+                    substeps,
+                    iterations: step.iterations,
+                })
+            }
+            _ => None,
+        })
     }
 
     /// Whether [`StepConfig::line_substeps`](super::StepConfig::line_substeps) applies to it: it

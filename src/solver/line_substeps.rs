@@ -83,7 +83,7 @@ pub const LINE_SUBSTEP_LONGEST: f64 = 1.0 / 64.0;
 
 /// [`Island::keeps_step_substeps`] for this step: whether `island`, which could take
 /// [`StepConfig::line_substeps`] (fewer than the step's substeps, no override of its own), holds
-/// one of the `attached` particles (sorted slots, see
+/// a particle attached to another engine's body (`attached`, see
 /// [`Solver::attached`](super::Solver::attached)), or is hit hard or holds a spring too stiff
 /// for them ([`hit_hard`]); `false` where it could not take them. `unset`: the substep of a
 /// Verlet state not yet set per island
@@ -91,7 +91,7 @@ pub const LINE_SUBSTEP_LONGEST: f64 = 1.0 / 64.0;
 pub(crate) fn keeps_step_substeps(
     island: &Island,
     arrays: (&Particles, &Sticks, &Pins),
-    attached: &[u32],
+    attached: bool,
     config: &StepConfig,
     unset: f64,
 ) -> bool {
@@ -101,7 +101,7 @@ pub(crate) fn keeps_step_substeps(
     if n >= config.substeps || island.settings.is_some() || !island.takes_line_substeps() {
         return false;
     }
-    if holds_any(&island.particles, attached) {
+    if attached {
         return true;
     }
     let h_state = island.state_substep_or(unset);

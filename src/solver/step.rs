@@ -220,7 +220,7 @@ impl Solver {
         // sleeping island rests with `x* = x`: left alone.)
         let global = config.substep();
         let unset = self.verlet_substep.unwrap_or(global);
-        // (`External::begin_step` sorts them; a list set by hand may not be.)
+        // (Sorted here, for `holds_any`: set in any order.)
         if !self.attached.is_sorted() {
             self.attached.sort_unstable();
         }
@@ -239,14 +239,15 @@ impl Solver {
                 && mass_ratio(&self.particles.inverse_mass[range(&island.particles)])
                     > config.symmetric_mass_ratio;
             let arrays = (&self.particles, &self.sticks, &self.pins);
+            let attached = holds_any(&island.particles, &self.attached);
             island.keeps_step_substeps =
-                keeps_step_substeps(island, arrays, &self.attached, config, unset);
+                keeps_step_substeps(island, arrays, attached, config, unset);
             island.steps_with_bodies = None;
             let own = island
                 .own_settings(config)
                 .map(|own| super::islands::configured(config, Some(own)));
             count = count.max(own.map_or(config.substeps, |c| c.substeps));
-            if island.settings.is_none() && holds_any(&island.particles, &self.attached) {
+            if island.settings.is_none() && attached {
                 // (Its substep waits for the step's count: see `step_with_bodies`.)
                 continue;
             }
@@ -1057,13 +1058,14 @@ fn due<'a>(
         substeps,
         iterations: global.config.iterations,
     };
-    let line_own = line_substep_count(&global.config).map(own_of);
+    let line_count = line_substep_count(&global.config);
+    let line_own = line_count.map(own_of);
     let lines = line_own.and_then(|own| configured(Some(own)));
     let bodies_own = own_of(global.count);
     let more = global.count > global.config.substeps;
     let with_bodies = more.then(|| configured(Some(bodies_own)));
     islands.iter().filter_map(move |island| {
-        let substep = match island.own_settings(&global.config) {
+        let substep = match island.own_settings_for(&global.config, line_count) {
             _ if island.asleep => None,
             None => shared,
             Some(own) if Some(own) == line_own => lines,
