@@ -9,6 +9,10 @@ use bevy::prelude::*;
 ///
 /// Islands advance in lockstep: each fixed step runs as many global substeps as the most
 /// demanding awake island needs, and every island takes its own count of them, evenly spread.
+/// An island tied to a rigid body (a `BodyAttachment`, features `avian2d`/`avian3d`) takes the
+/// fewest at least its own that divide that global count, which the bodies take (6 of 8 → 8,
+/// 3 of 8 → 4), so that each of its substeps ends with one of theirs and the coupling keeps
+/// momentum.
 ///
 /// [`IslandOverride::with_method`] also picks how the island is solved (see [`SolveMethod`]):
 /// a cloth hanging from a row of pins is solved exactly by lines at a single substep, for less

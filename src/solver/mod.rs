@@ -106,7 +106,9 @@ pub use contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, coll
 pub use external::External;
 pub use hierarchy::{Hierarchy, HierarchySet};
 pub use integrate::{consistent_previous, integrate, resubstep};
-pub use islands::{Island, IslandSettings, Islands, ReadOnly, Reorder, Sleep};
+pub use islands::{
+    Island, IslandSettings, Islands, ReadOnly, Reorder, Sleep, substeps_aligned_with,
+};
 pub use lines::{Line, LineSet, Method};
 pub use parallel::{Executor, ScopedThreads, Serial};
 pub use particles::Particles;

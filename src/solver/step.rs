@@ -247,7 +247,7 @@ impl Solver {
                 .own_settings(config)
                 .map(|own| super::islands::configured(config, Some(own)));
             count = count.max(own.map_or(config.substeps, |c| c.substeps));
-            if island.settings.is_none() && attached {
+            if attached {
                 // (Its substep waits for the step's count: see `step_with_bodies`.)
                 continue;
             }
@@ -259,23 +259,21 @@ impl Solver {
         count
     }
 
-    /// Gives every awake island without settings of its own that holds an attached particle
-    /// ([`Solver::attached`]) the step's `count` of substeps, which the bodies take — more than
-    /// its own where another island has an override with more
-    /// ([`Island::steps_with_bodies`]): the coupling keeps momentum exactly only substep by
-    /// substep (see [`attachments`](super::attachments)).
+    /// Gives every awake island that holds an attached particle ([`Solver::attached`]) the
+    /// step's `count` of substeps, which the bodies take — more than its own where another
+    /// island has an override with more — or, with settings of its own, the fewest at least
+    /// theirs that divide it ([`Island::steps_with_bodies`]): the coupling keeps momentum
+    /// exactly only substep by substep (see [`attachments`](super::attachments)).
     fn step_with_bodies(&mut self, config: &StepConfig, count: u32, unset: f64) {
         if self.attached.is_empty() {
             return;
         }
         for island in &mut self.islands.list.0 {
-            if island.asleep
-                || island.settings.is_some()
-                || !holds_any(&island.particles, &self.attached)
-            {
+            if island.asleep || !holds_any(&island.particles, &self.attached) {
                 continue;
             }
-            island.steps_with_bodies = (count > config.substeps).then_some(count);
+            let with_bodies = island.settings.is_some() || count > config.substeps;
+            island.steps_with_bodies = with_bodies.then_some(count);
             let own = island.own_settings(config);
             let h = super::islands::configured(config, own).substep();
             resubstep_island(&mut self.particles, island, config.gravity, (unset, h));
