@@ -8,19 +8,19 @@
 //! later (a Gauss–Seidel pass between a rope and a 100× heavier body would carry ~1 % of the
 //! correction per substep). After the relaxation ([`release`]) the particle's displacement is
 //! handed to the body as a positional correction at the anchor, the particle is put back on the
-//! anchor, and its own mass is restored. The correction keeps momentum (exactly for one
-//! attachment per body): the rope's impulse on the lumped particle, `J = Δx / w_lumped`, is
-//! shared between the body and the particle riding its anchor, `p + m·W(r) p = J` with `W(r)`
-//! the body's inverse mass matrix at the anchor (along the pull direction this moves the anchor
-//! by `Δx`). Static and kinematic bodies make the particle immovable: it follows the body like a
-//! pin.
+//! anchor, and its own mass is restored. The correction keeps momentum: the rope's impulse on
+//! the lumped particle, `J = Δx / w_lumped`, is shared between the body and the particle riding
+//! its anchor, `p + m·W(r) p = J` with `W(r)` the body's inverse mass matrix at the anchor
+//! (along the pull direction this moves the anchor by `Δx`) — for a body with several
+//! attachments all at once ([`shared`]). Static and kinematic bodies make the particle
+//! immovable: it follows the body like a pin.
 //!
 //! Before that, where the particle's motion over the substep differs from its anchor's by less
 //! than half the anchor's (riding a turning body: the anchor's path curves, the particle's does
 //! not) the two are met half way, as a zero-length joint: the body and the particle are moved
 //! by their masses, so what the particle's turn takes, the body gives (a 0.1 kg particle on a
-//! 1 kg box spun 2 rad in a second: momentum kept to 2·10⁻⁶ instead of losing 11 %; exact for
-//! one attachment per body). An offset from before the substep (a particle spawned off its
+//! 1 kg box spun 2 rad in a second: momentum kept to 2·10⁻⁶ instead of losing 11 %; for a
+//! body with several attachments all at once, [`shared`]). An offset from before the substep (a particle spawned off its
 //! anchor, a body moved by its own engine between steps) is closed by putting the particle on
 //! the anchor.
 //!
@@ -44,6 +44,8 @@
 use super::Particles;
 use super::bodies::Body;
 use glam::{DMat3, DVec3};
+
+mod shared;
 
 /// A particle fixed to a point of a body.
 ///
@@ -105,8 +107,13 @@ pub struct AttachmentScratch {
     pub velocity_corrections: Vec<(u32, DVec3, DVec3)>,
     /// Where the particle was placed before the relaxation.
     placed: Vec<DVec3>,
-    /// Attachments per body.
+    /// Attachments per body that take this substep.
     per_body: Vec<u32>,
+    /// A body's attachments that take this substep, and their shared system (see [`shared`]).
+    group: Vec<usize>,
+    system: Vec<f64>,
+    shares: Vec<f64>,
+    arms: Vec<DVec3>,
 }
 
 /// Before the relaxation: puts every due attachment's particle on its anchor (previous position
@@ -129,42 +136,44 @@ pub fn lump(
     scratch.velocity_corrections.clear();
     scratch.per_body.clear();
     scratch.per_body.resize(bodies.len(), 0);
-    for a in attachments {
-        scratch.per_body[a.body as usize] += 1;
+    for (k, a) in attachments.iter().enumerate() {
+        // (NaN: its particle does not take this substep.)
+        scratch.time_ratio[k] = due(a.particle as usize).unwrap_or(f64::NAN);
+        if !scratch.time_ratio[k].is_nan() {
+            scratch.per_body[a.body as usize] += 1;
+        }
     }
     for (k, a) in attachments.iter().enumerate() {
-        let p = a.particle as usize;
+        scratch.own_inverse_mass[k] = particles.inverse_mass[a.particle as usize];
         let body = &mut bodies[a.body as usize];
-        scratch.own_inverse_mass[k] = particles.inverse_mass[p];
-        let Some(ratio) = due(p) else {
-            scratch.body_inverse_mass[k] = f64::NAN; // not lumped
+        let ratio = scratch.time_ratio[k];
+        if ratio.is_nan() || scratch.per_body[a.body as usize] > 1 {
             continue;
-        };
-        // The particle and the anchor meet where their masses put them (a zero-length joint):
-        // over this substep the particle moved on its own path, the anchor on its body's. The
-        // gap is between those motions (an offset from before — a body moved by its own engine
-        // between steps — is closed by putting the particle on the anchor, as is a particle
-        // spawned off it: meeting half way would kick the body). Only a gap well within the
-        // anchor's own motion (a turning path). From a longer substep than the body's, the
-        // particle's motion over the body's substep is its velocity's: its own motion × ratio.
-        let w_own = particles.inverse_mass[p];
-        let anchor_motion = a.world_anchor(body) - a.previous_anchor(body);
-        let own_motion = (particles.position[p] - particles.previous[p]) * ratio;
-        let gap = anchor_motion - own_motion;
-        let riding = gap != DVec3::ZERO && gap.length() <= 0.5 * anchor_motion.length();
-        if w_own > 0.0 && body.is_dynamic() && riding {
+        }
+        if let Some(gap) = riding_gap(a, body, particles, ratio) {
             let r = body.rotation * a.anchor;
+            let w_own = particles.inverse_mass[a.particle as usize];
             let joint = body.inverse_mass_matrix_at(r) + DMat3::from_diagonal(DVec3::splat(w_own));
             let pull = joint.inverse() * gap;
             if pull.is_finite() {
                 body.correct(r, -pull);
             }
         }
+    }
+    shared::meet_half_way(attachments, bodies, particles, scratch);
+    for (k, a) in attachments.iter().enumerate() {
+        let p = a.particle as usize;
+        let body = &bodies[a.body as usize];
+        let ratio = scratch.time_ratio[k];
+        if ratio.is_nan() {
+            scratch.body_inverse_mass[k] = f64::NAN; // not lumped
+            continue;
+        }
+        let w_own = particles.inverse_mass[p];
         let r = body.rotation * a.anchor;
         let shares = f64::from(scratch.per_body[a.body as usize]);
         let w_body = body.inverse_mass_at(r, a.direction) * shares;
         scratch.body_inverse_mass[k] = w_body;
-        scratch.time_ratio[k] = ratio;
         let anchor = a.world_anchor(body);
         particles.position[p] = anchor;
         // (Its Verlet state in its own substep: the anchor's motion over the body's, scaled.)
@@ -178,6 +187,24 @@ pub fn lump(
     }
 }
 
+/// The gap between the motion of attachment `a`'s anchor over the body's substep and its
+/// particle's over that time, where the two are to meet half way, as a zero-length joint: over
+/// this substep the particle moved on its own path, the anchor on its body's. An offset from
+/// before — a body moved by its own engine between steps — is closed by putting the particle
+/// on the anchor instead, as is a particle spawned off it (meeting half way would kick the
+/// body): only a gap well within the anchor's own motion (a turning path) is met, and only for
+/// a movable particle on a dynamic body. From a longer substep than the body's (`ratio` =
+/// `h_body/h` < 1) the particle's motion over the body's substep is its velocity's: its own
+/// motion × `ratio`.
+fn riding_gap(a: &Attachment, body: &Body, particles: &Particles, ratio: f64) -> Option<DVec3> {
+    let p = a.particle as usize;
+    let anchor_motion = a.world_anchor(body) - a.previous_anchor(body);
+    let own_motion = (particles.position[p] - particles.previous[p]) * ratio;
+    let gap = anchor_motion - own_motion;
+    let riding = gap != DVec3::ZERO && gap.length() <= 0.5 * anchor_motion.length();
+    (particles.inverse_mass[p] > 0.0 && body.is_dynamic() && riding).then_some(gap)
+}
+
 /// After the relaxation: moves each body by the impulse its attached particles took (the body
 /// and the particle on its anchor share it, momentum kept), puts the particles back on the
 /// anchors, and restores their masses.
@@ -187,9 +214,10 @@ pub fn release(
     particles: &mut Particles,
     scratch: &mut AttachmentScratch,
 ) {
+    shared::release(attachments, bodies, particles, scratch);
     for (k, a) in attachments.iter_mut().enumerate() {
         let w_body = scratch.body_inverse_mass[k];
-        if w_body.is_nan() {
+        if w_body.is_nan() || scratch.per_body[a.body as usize] > 1 {
             continue;
         }
         let p = a.particle as usize;

@@ -176,6 +176,31 @@ impl Body {
         DMat3::from_diagonal(DVec3::splat(self.inverse_mass)) - cross * self.inverse_inertia * cross
     }
 
+    /// How a correction `p` applied at arm `b` moves the body's point at arm `a` (to first
+    /// order): `W(a, b) p` with `W(a, b) = w·I + [a]ₓᵀ I⁻¹ [b]ₓ`, so that
+    /// [`Body::inverse_mass_matrix_at`] is `W(r, r)` and `W(b, a) = W(a, b)ᵀ`. Zero for
+    /// immovable bodies.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Body;
+    /// use glam::{DMat3, DQuat, DVec3};
+    /// let body = Body::dynamic(DVec3::ZERO, DQuat::IDENTITY, 0.5, DMat3::IDENTITY * 2.0);
+    /// let (a, b) = (DVec3::X, -DVec3::X);
+    /// // A push along Y at one end of a rod turns it: the other end moves the other way.
+    /// let w = body.inverse_mass_matrix_between(a, b);
+    /// assert!((w * DVec3::Y - DVec3::Y * (0.5 - 2.0)).length() < 1e-12);
+    /// assert!((w.transpose() - body.inverse_mass_matrix_between(b, a)).abs_diff_eq(DMat3::ZERO, 1e-12));
+    /// ```
+    pub fn inverse_mass_matrix_between(&self, a: DVec3, b: DVec3) -> DMat3 {
+        if !self.is_dynamic() {
+            return DMat3::ZERO;
+        }
+        let cross =
+            |r: DVec3| DMat3::from_cols(r.cross(DVec3::X), r.cross(DVec3::Y), r.cross(DVec3::Z));
+        DMat3::from_diagonal(DVec3::splat(self.inverse_mass))
+            - cross(a) * self.inverse_inertia * cross(b)
+    }
+
     /// Velocity of the body's material point at arm `r`.
     pub fn point_velocity(&self, r: DVec3) -> DVec3 {
         self.velocity + self.angular_velocity.cross(r)
