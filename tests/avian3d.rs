@@ -108,6 +108,17 @@ fn a_particle_rests_on_a_capsule() {
     assert!(moved < 1e-3, "jitter or creep {moved} m");
 }
 
+/// Period of a rigid pendulum of moment of inertia `inertia` about its pivot and mass × arm
+/// `moment`, released at `amplitude` (exact, by the arithmetic–geometric mean), under 9.81 m/s².
+fn rigid_period(inertia: f64, moment: f64, amplitude: f64) -> f64 {
+    let k = (amplitude / 2.0).sin();
+    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
+    for _ in 0..20 {
+        (a, b) = ((a + b) / 2.0, (a * b).sqrt());
+    }
+    4.0 * (inertia / (moment * 9.81)).sqrt() * std::f64::consts::PI / (2.0 * a)
+}
+
 #[test]
 fn a_rope_pendulum_with_an_avian_bob_keeps_its_period_and_swing() {
     // A 1 m, 10-link rope of light particles from a pin, a 1 kg ball at its end, released at
@@ -140,12 +151,7 @@ fn a_rope_pendulum_with_an_avian_bob_keeps_its_period_and_swing() {
     let radii = (1..=10).map(|i| i as f64 / 10.0);
     let inertia = radii.clone().map(|r| 0.01 * r * r).sum::<f64>() + 1.0;
     let moment = radii.map(|r| 0.01 * r).sum::<f64>() + 1.0;
-    let k = (f64::from(amplitude) / 2.0).sin();
-    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
-    for _ in 0..20 {
-        (a, b) = ((a + b) / 2.0, (a * b).sqrt());
-    }
-    let expected = 4.0 * (inertia / (moment * 9.81)).sqrt() * std::f64::consts::PI / (2.0 * a);
+    let expected = rigid_period(inertia, moment, f64::from(amplitude));
     let (mut crossings, mut last_z, mut swing, mut last_swing) =
         (Vec::new(), body(&app, bob).z, 0.0f32, 0.0f32);
     for n in 1..=(64.0 * 3.5 * expected) as usize {
@@ -315,12 +321,7 @@ fn a_platform_swung_on_four_ropes_keeps_its_period_and_stays_level() {
     let radii = (1..=10).map(|i| i as f64 / 10.0);
     let inertia = 4.0 * radii.clone().map(|r| 0.01 * r * r).sum::<f64>() + 1.0;
     let moment = 4.0 * radii.map(|r| 0.01 * r).sum::<f64>() + 1.0;
-    let k = (f64::from(amplitude) / 2.0).sin();
-    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
-    for _ in 0..20 {
-        (a, b) = ((a + b) / 2.0, (a * b).sqrt());
-    }
-    let expected = 4.0 * (inertia / (moment * 9.81)).sqrt() * std::f64::consts::PI / (2.0 * a);
+    let expected = rigid_period(inertia, moment, f64::from(amplitude));
     let (mut crossings, mut last_z, mut swing, mut last_swing) =
         (Vec::new(), centre.z, 0.0f32, 0.0f32);
     let (mut turn, mut gap) = (0.0f32, 0.0f32);
