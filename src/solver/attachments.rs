@@ -3,7 +3,8 @@
 //! An attached particle is rigidly fixed to its anchor, so for the constraints around it the
 //! particle and the body move as one: before the relaxation ([`lump`]) the particle is placed
 //! on its anchor and takes the body's effective mass (along the direction it was last pulled,
-//! `1/(r × n)·I⁻¹(r × n) + 1/M`, shared between the body's attachments), so a rope solve sees a
+//! `1/(r × n)·I⁻¹(r × n) + 1/M`, shared between the body's attachments that take this
+//! substep), so a rope solve sees a
 //! heavy crate at its end and not a light particle that the crate catches up with a substep
 //! later (a Gauss–Seidel pass between a rope and a 100× heavier body would carry ~1 % of the
 //! correction per substep). After the relaxation ([`release`]) the particle's displacement is
@@ -122,6 +123,9 @@ pub struct AttachmentScratch {
     placed: Vec<DVec3>,
     /// Attachments per body that take this substep.
     per_body: Vec<u32>,
+    /// Those attachments by body: body `b`'s are `order[starts[b]..starts[b + 1]]`.
+    starts: Vec<u32>,
+    order: Vec<usize>,
     /// A body's attachments that take this substep, and their shared system (see [`shared`]).
     group: Vec<usize>,
     system: Vec<f64>,
@@ -156,6 +160,7 @@ pub fn lump(
             scratch.per_body[a.body as usize] += 1;
         }
     }
+    sort_by_body(attachments, scratch);
     for (k, a) in attachments.iter().enumerate() {
         scratch.own_inverse_mass[k] = particles.inverse_mass[a.particle as usize];
         let body = &mut bodies[a.body as usize];
@@ -198,6 +203,32 @@ pub fn lump(
             0.0
         };
     }
+}
+
+/// Lists the attachments that take this substep by body (`scratch.starts`, `scratch.order`),
+/// from the counts in `scratch.per_body`.
+fn sort_by_body(attachments: &[Attachment], scratch: &mut AttachmentScratch) {
+    scratch.starts.clear();
+    scratch.starts.push(0);
+    let mut total = 0;
+    for &count in &scratch.per_body {
+        total += count;
+        scratch.starts.push(total);
+    }
+    scratch.order.clear();
+    scratch.order.resize(total as usize, 0);
+    // (Each body's next free place; `starts` shifted back once filled.)
+    for (k, a) in attachments.iter().enumerate() {
+        if !scratch.time_ratio[k].is_nan() {
+            let next = &mut scratch.starts[a.body as usize];
+            scratch.order[*next as usize] = k;
+            *next += 1;
+        }
+    }
+    for b in (1..scratch.starts.len()).rev() {
+        scratch.starts[b] = scratch.starts[b - 1];
+    }
+    scratch.starts[0] = 0;
 }
 
 /// The gap between the motion of attachment `a`'s anchor over the body's substep and its

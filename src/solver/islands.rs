@@ -96,8 +96,9 @@ pub struct Island {
     /// Tethers.
     pub tethers: Range<u32>,
     /// Overrides of the step's substeps and iterations (what it takes is
-    /// [`Island::own_settings`]: these, else [`Island::steps_with_bodies`], else
-    /// `line_substeps` where that applies).
+    /// [`Island::own_settings`]: these — attached to a body, their substeps raised to a count
+    /// that divides the bodies', [`substeps_aligned_with`] — else
+    /// [`Island::steps_with_bodies`], else `line_substeps` where that applies).
     pub settings: Option<IslandSettings>,
     /// How its sticks are solved (resolved by [`Solver::organize`]: never [`Method::Auto`]
     /// there; an island left at `Auto` is swept).
@@ -182,8 +183,9 @@ impl Island {
         }
     }
 
-    /// Its substeps and iterations where they are not the step's: its [`Island::settings`], else
-    /// [`Island::steps_with_bodies`] (the bodies' count), else
+    /// Its substeps and iterations where they are not the step's: its [`Island::settings`] (where
+    /// [`Island::steps_with_bodies`] is set, their substeps raised to the fewest that divide it:
+    /// [`substeps_aligned_with`]), else [`Island::steps_with_bodies`] (the bodies' count), else
     /// [`StepConfig::line_substeps`](super::StepConfig::line_substeps) (at least 1, more for a
     /// step longer than 1/64 s: [`line_substep_count`]) if it
     /// [`Island::takes_line_substeps`] and does not [`Island::keeps_step_substeps`] in this step.
@@ -252,14 +254,13 @@ impl Island {
     }
 }
 
-/// `step` with `settings` applied, substeps and iterations at least 1 (see [`Island::config`]).
 /// The fewest substeps, at least `substeps` (and 1), that divide `bodies` — the count the bodies
 /// take — so that every substep of an island attached to a body ends where one of the body's
 /// does: the coupling hands momentum over substep by substep (see
-/// [`attachments`](super::attachments)). An island given 6 of the bodies' 8 would take its
-/// substeps a quarter of a body substep off theirs (a 0.1 kg knot on a spinning box lost 45 %
-/// to 159 % of the momentum at 5 to 7 of 8, `tests/avian2d.rs`). `substeps` where `bodies` is
-/// not more.
+/// [`attachments`](super::attachments)). An island given 6 of the bodies' 8 would end its
+/// substeps up to two thirds of a body substep off theirs (a 0.1 kg knot on a spinning box lost
+/// 45 % to 159 % of the momentum at 5 to 7 of 8, `tests/avian2d.rs`). `substeps` where `bodies`
+/// is not more.
 ///
 /// ```
 /// use bevy_verlet_physics::solver::substeps_aligned_with;
@@ -280,6 +281,7 @@ pub fn substeps_aligned_with(substeps: u32, bodies: u32) -> u32 {
         .unwrap_or(bodies)
 }
 
+/// `step` with `settings` applied, substeps and iterations at least 1 (see [`Island::config`]).
 pub(crate) fn configured(
     step: &super::StepConfig,
     settings: Option<IslandSettings>,

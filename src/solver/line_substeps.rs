@@ -19,8 +19,9 @@
 //! ([`Solver::attached`](super::Solver::attached); more where the bodies take more,
 //! [`Island::steps_with_bodies`](super::Island::steps_with_bodies)): it steps with the body, whose coupling
 //! keeps momentum best substep by substep (a 0.1 kg knot of a rope riding a spinning 1 kg
-//! avian box: 2·10⁻⁶ of the momentum lost at the box's 8 substeps, 3·10⁻⁵ at 2 — 12 % before
-//! a knot was met half way from a longer substep too; `tests/avian2d.rs`).
+//! avian box: 2·10⁻⁶ of the momentum lost at the box's 8 substeps, 3·10⁻⁵ with 2 of its own
+//! from an `IslandOverride` — 12 % before a knot was met half way from a longer substep too;
+//! `tests/avian2d.rs`).
 //!
 //! ```
 //! use bevy_verlet_physics::solver::{Solver, StepConfig, StickKind};

@@ -262,8 +262,8 @@ impl Solver {
     /// Gives every awake island that holds an attached particle ([`Solver::attached`]) the
     /// step's `count` of substeps, which the bodies take — more than its own where another
     /// island has an override with more — or, with settings of its own, the fewest at least
-    /// theirs that divide it ([`Island::steps_with_bodies`]): the coupling keeps momentum
-    /// exactly only substep by substep (see [`attachments`](super::attachments)).
+    /// theirs that divide it ([`Island::steps_with_bodies`]): the coupling keeps momentum best
+    /// substep by substep (see [`attachments`](super::attachments)).
     fn step_with_bodies(&mut self, config: &StepConfig, count: u32, unset: f64) {
         if self.attached.is_empty() {
             return;
