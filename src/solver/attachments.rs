@@ -28,7 +28,8 @@
 //! **Several attachments on one body.** A correction at one anchor moves the body's other
 //! anchors too — `W(r_k, r_j)` ([`Body::inverse_mass_matrix_between`]) — so for a body with
 //! more than one attachment taking the substep both exchanges are solved for all of them at
-//! once, in one system of `3K` unknowns (Gaussian elimination): the half-way meeting,
+//! once, in one system of `3K` unknowns (solved through the body's six degrees of freedom, in
+//! time linear in `K`): the half-way meeting,
 //! `Σ_j W(r_k, r_j) q_j + w_k q_k = g_k` for the gaps `g`, and the sharing of the impulses,
 //! `w_k p_k + Σ_j W(r_k, r_j) p_j = w_k J_k`. Momentum is then kept whatever the number of
 //! attachments (to first order in the body's turn per substep); one at a time, each correction
@@ -128,7 +129,6 @@ pub struct AttachmentScratch {
     order: Vec<usize>,
     /// A body's attachments that take this substep, and their shared system (see [`shared`]).
     group: Vec<usize>,
-    system: Vec<f64>,
     shares: Vec<f64>,
     arms: Vec<DVec3>,
 }

@@ -3,7 +3,8 @@
 //! A correction at one anchor moves the body's other anchors too — `W(r_k, r_j)`
 //! ([`Body::inverse_mass_matrix_between`]) — so the two exchanges between a body and the
 //! particles riding its anchors are solved for all of a body's attachments at once, in one
-//! small linear system (`3K` unknowns for `K` attachments, Gaussian elimination):
+//! linear system (`3K` unknowns for `K` attachments, solved through the body's six degrees of
+//! freedom: [`solve_joint`]):
 //!
 //! - [`meet_half_way`]: particles riding turning anchors and their anchors meet where their
 //!   masses put them, `Σ_j W(r_k, r_j) q_j + w_k q_k = g_k` for the gaps `g` (a zero-length
@@ -154,29 +155,60 @@ fn taken(a: &Attachment, k: usize, particles: &Particles, scratch: &AttachmentSc
 /// `Σ_j W(r_k, r_j) x_j + w_k x_k = b_k` (`w_k` the particle's own inverse mass), for the
 /// right-hand sides in `scratch.shares`, which become the solution; the arms go to
 /// `scratch.arms`. `false` where the system is singular.
+///
+/// `W(r_k, r_j) = U_k M⁻¹ U_jᵀ` with `U_k = [I | −[r_k]ₓ]` and `M⁻¹ = diag(w·I, I⁻¹)` the
+/// body's: the coupling has the body's six degrees of freedom only, so the `3K × 3K` system is
+/// solved through a 6 × 6 one (Woodbury): `x = D⁻¹b − D⁻¹ U M⁻¹ (I + Uᵀ D⁻¹ U M⁻¹)⁻¹ Uᵀ D⁻¹ b`,
+/// `D = diag(w_k)` — linear in `K` (a cloth's edge tied along a bar), and without inverting
+/// `M⁻¹`, which a locked axis makes singular.
 fn solve_joint(attachments: &[Attachment], body: &Body, scratch: &mut AttachmentScratch) -> bool {
-    let size = 3 * scratch.group.len();
     scratch.arms.clear();
-    let arms = scratch
-        .group
-        .iter()
-        .map(|&k| body.rotation * attachments[k].anchor);
+    let arms = (scratch.group.iter()).map(|&k| body.rotation * attachments[k].anchor);
     scratch.arms.extend(arms);
-    scratch.system.clear();
-    scratch.system.resize(size * size, 0.0);
+    // `Uᵀ D⁻¹ b` (a force and a torque) and `G = Uᵀ D⁻¹ U` in 3 × 3 blocks.
+    let (mut force, mut torque) = (DVec3::ZERO, DVec3::ZERO);
+    let (mut g11, mut g12, mut g22) = (DMat3::ZERO, DMat3::ZERO, DMat3::ZERO);
     for (row, &k) in scratch.group.iter().enumerate() {
-        for column in 0..scratch.group.len() {
-            let mut block =
-                body.inverse_mass_matrix_between(scratch.arms[row], scratch.arms[column]);
-            if row == column {
-                block += DMat3::from_diagonal(DVec3::splat(scratch.own_inverse_mass[k]));
-            }
-            for (x, y) in (0..3).flat_map(|x| (0..3).map(move |y| (x, y))) {
-                scratch.system[(3 * row + y) * size + 3 * column + x] = block.col(x)[y];
-            }
-        }
+        let (w, r) = (scratch.own_inverse_mass[k], scratch.arms[row]);
+        let y = DVec3::from_slice(&scratch.shares[3 * row..3 * row + 3]) / w;
+        force += y;
+        torque += r.cross(y);
+        let c = cross_matrix(r);
+        g11 += DMat3::IDENTITY / w;
+        g12 -= c / w;
+        g22 -= c * c / w;
     }
-    solve_in_place(size, &mut scratch.system, &mut scratch.shares)
+    // `G₂₁ = −G₁₂` ([r]ₓ is skew); `I + G M⁻¹`, row-major.
+    let (w_body, inertia) = (body.inverse_mass, body.inverse_inertia);
+    let blocks = [
+        [DMat3::IDENTITY + g11 * w_body, g12 * inertia],
+        [-g12 * w_body, DMat3::IDENTITY + g22 * inertia],
+    ];
+    let mut a = [0.0; 36];
+    for (row, column, x, y) in
+        (0..4).flat_map(|b| (0..9).map(move |e| (b / 2, b % 2, e / 3, e % 3)))
+    {
+        a[(3 * row + y) * 6 + 3 * column + x] = blocks[row][column].col(x)[y];
+    }
+    let mut t = [force.x, force.y, force.z, torque.x, torque.y, torque.z];
+    if !solve_in_place(6, &mut a, &mut t) {
+        return false;
+    }
+    // The body's motion `M⁻¹ t`, and each `x_k = (b_k − U_k M⁻¹ t) / w_k`.
+    let moved = DVec3::from_slice(&t[..3]) * w_body;
+    let turned = inertia * DVec3::from_slice(&t[3..]);
+    for (row, &k) in scratch.group.iter().enumerate() {
+        let (w, r) = (scratch.own_inverse_mass[k], scratch.arms[row]);
+        let b = DVec3::from_slice(&scratch.shares[3 * row..3 * row + 3]);
+        let x = (b - (moved + turned.cross(r))) / w;
+        scratch.shares[3 * row..3 * row + 3].copy_from_slice(&x.to_array());
+    }
+    scratch.shares.iter().all(|v| v.is_finite())
+}
+
+/// `[r]ₓ`: `[r]ₓ v = r × v`.
+fn cross_matrix(r: DVec3) -> DMat3 {
+    DMat3::from_cols(r.cross(DVec3::X), r.cross(DVec3::Y), r.cross(DVec3::Z))
 }
 
 /// Solves `A x = b` in place (`A` row-major `n × n`, `b` becomes `x`) by Gaussian elimination
@@ -220,9 +252,48 @@ fn solve_in_place(n: usize, a: &mut [f64], b: &mut [f64]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::super::{Attachment, AttachmentScratch, lump, release};
-    use super::solve_in_place;
+    use super::{solve_in_place, solve_joint};
     use crate::solver::{Body, Particles};
     use glam::{DMat3, DQuat, DVec3};
+
+    /// The 6 × 6 solve through the body gives the solution of the full `3K × 3K` system: its
+    /// residual, summed block by block, is at rounding level — for 40 attachments on a turned
+    /// body with an anisotropic inertia.
+    #[test]
+    fn the_joint_system_is_solved_through_the_body() {
+        let inverse_inertia = DMat3::from_cols(
+            DVec3::new(2.0, 0.3, 0.1),
+            DVec3::new(0.3, 3.0, -0.2),
+            DVec3::new(0.1, -0.2, 4.0),
+        );
+        let rotation = DQuat::from_rotation_y(0.7);
+        let body = Body::dynamic(DVec3::ZERO, rotation, 0.5, inverse_inertia);
+        let n = 40;
+        let wave = |k: usize, f: f64| (k as f64 * f).sin();
+        let anchor = |k| DVec3::new(wave(k, 1.3), wave(k, 2.1), wave(k, 0.7));
+        let attachments: Vec<Attachment> = (0..n)
+            .map(|k| Attachment::new(k as u32, 0, anchor(k)))
+            .collect();
+        let b: Vec<DVec3> = (0..n)
+            .map(|k| DVec3::new(wave(k, 3.1), wave(k, 0.4), 1.0))
+            .collect();
+        let mut scratch = AttachmentScratch {
+            group: (0..n).collect(),
+            own_inverse_mass: (0..n).map(|k| 1.0 + 10.0 * wave(k, 0.9).abs()).collect(),
+            shares: b.iter().flat_map(|v| v.to_array()).collect(),
+            ..AttachmentScratch::default()
+        };
+        assert!(solve_joint(&attachments, &body, &mut scratch));
+        let x = |j: usize| DVec3::from_slice(&scratch.shares[3 * j..3 * j + 3]);
+        for (k, want) in b.iter().enumerate() {
+            let r = scratch.arms[k];
+            let coupled: DVec3 = (0..n)
+                .map(|j| body.inverse_mass_matrix_between(r, scratch.arms[j]) * x(j))
+                .sum();
+            let residual = coupled + x(k) * scratch.own_inverse_mass[k] - *want;
+            assert!(residual.length() < 1e-12, "row {k}: residual {residual}");
+        }
+    }
 
     #[test]
     fn gaussian_elimination_pivots() {
