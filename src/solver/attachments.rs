@@ -41,7 +41,7 @@
 //! body's inverse mass at the anchor times the number of attachments, used before, made the
 //! ends far lighter than the part of the body each carries: a platform swung on four parallel
 //! ropes swung 4.6 % fast (now 0.09 % slow, `tests/avian3d.rs`) and a plank hung in a V from
-//! one pin gained 11 % of m·g·L (now 7·10⁻⁶).
+//! one pin gained 12 % of m·g·L (now 7·10⁻⁶ of it).
 //!
 //! An island that takes fewer substeps than the bodies (its own `IslandOverride`, raised to a
 //! count that divides the bodies' so that each of its substeps ends with one of theirs:

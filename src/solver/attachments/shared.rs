@@ -28,8 +28,8 @@
 //! never heavier than any of them makes it. The body's inverse mass at the anchor times the
 //! number of attachments, before, was far lighter still: a plank swung level on two parallel
 //! ropes had its period 0.34 % short (now 0.04 % long), a platform on four 4.6 % (0.09 %
-//! long), and a plank hung in a V from one pin gained 11 % of m·g·L (now 7·10⁻⁶). Measured
-//! and not kept: the exact value for pulls in the ratios of the last ones,
+//! long), and a plank hung in a V from one pin gained 12 % of m·g·L (now 7·10⁻⁶ of it).
+//! Measured and not kept: the exact value for pulls in the ratios of the last ones,
 //! `Σ_j d_k·W(r_k, r_j)·d_j · s_j/s_k` (the plank's period to 0.06 %, but the modes it makes
 //! too heavy — turns — grew: the platform turned by 0.2 rad).
 
