@@ -3,7 +3,7 @@
 //! An attached particle is rigidly fixed to its anchor, so for the constraints around it the
 //! particle and the body move as one: before the relaxation ([`lump`]) the particle is placed
 //! on its anchor and takes the body's effective mass (along the direction it was last pulled,
-//! `1/(r × n)·I⁻¹(r × n) + 1/M`; with other attachments on the body, see below), so a rope
+//! `1/((r × n)·I⁻¹(r × n) + 1/M)`; with other attachments on the body, see below), so a rope
 //! solve sees a
 //! heavy crate at its end and not a light particle that the crate catches up with a substep
 //! later (a Gauss–Seidel pass between a rope and a 100× heavier body would carry ~1 % of the
@@ -37,7 +37,8 @@
 //! its momentum in 2 s with knots of 1 g to 1 kg; now below 3·10⁻⁷, `tests/avian2d.rs`). The
 //! effective inverse mass each rope's solve sees at its end is how far that anchor can move
 //! per unit of its pull while the others pull as hard, each the way that moves it most,
-//! `Σ_j |d_k·W(r_k, r_j)·d_j|` — never heavier than any pattern of such pulls makes it. The
+//! `Σ_j |d_k·W(r_k, r_j)·d_j|` — never heavier than any pattern of such pulls makes it (up to
+//! [`EXACT_SHARING_UP_TO`] attachments on a body; beyond, the cheaper rule below). The
 //! body's inverse mass at the anchor times the number of attachments, used before, made the
 //! ends far lighter than the part of the body each carries: a platform swung on four parallel
 //! ropes swung 4.6 % fast (now 0.09 % slow, `tests/avian3d.rs`) and a plank hung in a V from
@@ -65,6 +66,7 @@ use super::bodies::Body;
 use glam::{DMat3, DVec3};
 
 mod shared;
+pub use shared::EXACT_SHARING_UP_TO;
 
 /// A particle fixed to a point of a body.
 ///
@@ -116,8 +118,11 @@ impl Attachment {
 pub struct AttachmentScratch {
     /// The particle's own inverse mass, restored by [`release`].
     own_inverse_mass: Vec<f64>,
-    /// The body's inverse mass at the anchor along the pull direction, shared (÷ attachments).
+    /// The body's effective inverse mass at the anchor along the pull direction (with other
+    /// attachments on the body: [`shared`]'s).
     body_inverse_mass: Vec<f64>,
+    /// Per attachment on a shared body: its pull, `I⁻¹ (r × d)` and `r × d`.
+    pulls: Vec<[DVec3; 3]>,
     /// The bodies' substep over the particle's, `h_body/h` (1 when it takes every substep).
     time_ratio: Vec<f64>,
     /// Velocity impulses `(body, arm, impulse × h_body)` to apply after the bodies' substep
@@ -183,6 +188,7 @@ pub fn lump(
         }
     }
     shared::meet_half_way(attachments, bodies, particles, scratch);
+    shared::prepare_pulls(attachments, bodies, scratch);
     for (k, a) in attachments.iter().enumerate() {
         let p = a.particle as usize;
         let body = &bodies[a.body as usize];

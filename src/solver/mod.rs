@@ -98,7 +98,7 @@ mod tethers;
 pub mod tree;
 
 pub use angles::{Angles, relax_angles};
-pub use attachments::{Attachment, AttachmentScratch, lump, release};
+pub use attachments::{Attachment, AttachmentScratch, EXACT_SHARING_UP_TO, lump, release};
 pub use bodies::{Body, Pose};
 pub use colliders::{Collider, Shape, constrain};
 pub use colouring::Batch;

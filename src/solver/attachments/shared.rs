@@ -18,7 +18,7 @@
 //! substep), where exchanging with one attachment at a time left what each correction gave the
 //! other particles' anchors unaccounted: a free 1 kg box, 20 cm, with a 5-link rope on each
 //! side, one of them moving at 2 m/s, lost 0.28 %, 28 % and 82 % of its momentum in 2 s with
-//! knots of 1 g, 0.1 kg and 1 kg; now 3·10⁻⁷, 1.4·10⁻⁷ and 3·10⁻⁸ (`tests/avian2d.rs`).
+//! knots of 1 g, 0.1 kg and 1 kg; now 2.5·10⁻⁷, 1.2·10⁻⁷ and 7.5·10⁻⁸ (`tests/avian2d.rs`).
 //!
 //! [`inverse_mass`]: the effective inverse mass a rope's solve sees at anchor `k` is how far
 //! the anchor can move per unit of its pull while every attachment pulls as hard, each along
@@ -38,12 +38,45 @@ use crate::solver::Particles;
 use crate::solver::bodies::Body;
 use glam::{DMat3, DVec3};
 
+/// Above this many attachments taking a substep on one body, each end's effective inverse mass
+/// is the body's at its anchor times their number (the cheaper, lighter bound) instead of how
+/// far the anchor can move while the others pull as hard (see
+/// [`attachments`](crate::solver::attachments)), whose cost grows with the square of the count:
+/// a cloth's edge tied along a bar.
+///
+/// ```
+/// assert_eq!(bevy_verlet_physics::solver::EXACT_SHARING_UP_TO, 32);
+/// ```
+pub const EXACT_SHARING_UP_TO: u32 = 32;
+
+/// Keeps, for every attachment taking this substep on a body with more than one, what
+/// [`inverse_mass`] pairs up: its last pull `d`, and `I⁻¹ (r × d)` with `r × d`.
+pub(super) fn prepare_pulls(
+    attachments: &[Attachment],
+    bodies: &[Body],
+    scratch: &mut AttachmentScratch,
+) {
+    scratch.pulls.resize(attachments.len(), [DVec3::ZERO; 3]);
+    for (k, a) in attachments.iter().enumerate() {
+        let shared = scratch.per_body[a.body as usize];
+        if shared <= 1 || shared > EXACT_SHARING_UP_TO || scratch.time_ratio[k].is_nan() {
+            continue;
+        }
+        let body = &bodies[a.body as usize];
+        let arm = (body.rotation * a.anchor).cross(a.direction);
+        scratch.pulls[k] = [a.direction, body.inverse_inertia * arm, arm];
+    }
+}
+
 /// The effective inverse mass a rope's solve sees at attachment `k`'s anchor, along its last
 /// pull `d_k`, where its body holds other attachments taking this substep: how far the anchor
 /// can move per unit of its pull while every attachment pulls as hard, each along its own last
-/// pull and with the sign that moves anchor `k` most — `Σ_j |d_k·W(r_k, r_j)·d_j|` over them,
-/// `k` included. One attachment alone: `d·W(r)·d`, the body's inverse mass there. See the
-/// [module docs](self) for what it replaced.
+/// pull and with the sign that moves anchor `k` most — `Σ_j |d_k·W(r_k, r_j)·d_j|` over those
+/// whose particle can move, `k` included, with
+/// `d_k·W(r_k, r_j)·d_j = w·d_k·d_j + (r_k × d_k)·I⁻¹(r_j × d_j)` ([`prepare_pulls`]). One
+/// attachment alone: `d·W(r)·d`, the body's inverse mass there. Above
+/// [`EXACT_SHARING_UP_TO`] attachments, that times their number. See the [module docs](self)
+/// for what it replaced.
 pub(super) fn inverse_mass(
     attachments: &[Attachment],
     k: usize,
@@ -51,14 +84,19 @@ pub(super) fn inverse_mass(
     scratch: &AttachmentScratch,
 ) -> f64 {
     let a = &attachments[k];
-    let (r, d) = (body.rotation * a.anchor, a.direction);
     let b = a.body as usize;
+    let shared = scratch.per_body[b];
+    if shared > EXACT_SHARING_UP_TO {
+        let r = body.rotation * a.anchor;
+        return body.inverse_mass_at(r, a.direction) * f64::from(shared);
+    }
+    let [d, _, arm] = scratch.pulls[k];
     let bucket = scratch.starts[b] as usize..scratch.starts[b + 1] as usize;
     (scratch.order[bucket].iter())
+        .filter(|&&j| j == k || scratch.own_inverse_mass[j] > 0.0)
         .map(|&j| {
-            let other = &attachments[j];
-            let between = body.inverse_mass_matrix_between(r, body.rotation * other.anchor);
-            d.dot(between * other.direction).abs()
+            let [other, turn, _] = scratch.pulls[j];
+            (body.inverse_mass * d.dot(other) + arm.dot(turn)).abs()
         })
         .sum()
 }
@@ -327,6 +365,58 @@ mod tests {
                 .sum();
             let residual = coupled + x(k) * scratch.own_inverse_mass[k] - *want;
             assert!(residual.length() < 1e-12, "row {k}: residual {residual}");
+        }
+    }
+
+    /// Each end's effective inverse mass is `Σ_j |d_k·W(r_k, r_j)·d_j|` over the body's
+    /// attachments — up to [`EXACT_SHARING_UP_TO`](super::EXACT_SHARING_UP_TO) of them; beyond,
+    /// the body's inverse mass at the anchor times their number.
+    #[test]
+    fn each_end_sees_the_body_with_the_others_pulling_as_hard() {
+        let inverse_inertia = DMat3::from_diagonal(DVec3::new(2.0, 3.0, 4.0));
+        let rotation = DQuat::from_rotation_z(0.4);
+        for n in [3usize, 40] {
+            let mut bodies = [Body::dynamic(DVec3::ZERO, rotation, 0.5, inverse_inertia)];
+            let mut particles = Particles::default();
+            let wave = |k: usize, f: f64| (k as f64 * f + 0.3).sin();
+            let anchor = |k| DVec3::new(wave(k, 1.3), wave(k, 2.1), wave(k, 0.7));
+            let mut attachments = Vec::new();
+            for k in 0..n {
+                let at = bodies[0].rotation * anchor(k);
+                particles.push(at, at, 10.0, 0.0, 0);
+                let mut a = Attachment::new(k as u32, 0, anchor(k));
+                a.direction = DVec3::new(wave(k, 0.5), 1.0, wave(k, 1.7)).normalize();
+                attachments.push(a);
+            }
+            let mut scratch = AttachmentScratch::default();
+            lump(
+                &attachments,
+                &mut bodies,
+                &mut particles,
+                &mut scratch,
+                |_| Some(1.0),
+            );
+            let body = &bodies[0];
+            for (k, a) in attachments.iter().enumerate() {
+                let r = body.rotation * a.anchor;
+                let want = if n as u32 > super::EXACT_SHARING_UP_TO {
+                    body.inverse_mass_at(r, a.direction) * n as f64
+                } else {
+                    (attachments.iter())
+                        .map(|b| {
+                            let between =
+                                body.inverse_mass_matrix_between(r, body.rotation * b.anchor);
+                            a.direction.dot(between * b.direction).abs()
+                        })
+                        .sum()
+                };
+                let lumped = 1.0 / (1.0 / 10.0 + 1.0 / want);
+                let got = particles.inverse_mass[k];
+                assert!(
+                    (got - lumped).abs() < 1e-12 * lumped,
+                    "{n}, {k}: {got} vs {lumped}"
+                );
+            }
         }
     }
 
