@@ -1263,32 +1263,8 @@ fn a_plank_swung_on_two_ropes_keeps_its_period_and_stays_level() {
     let mut app = app(Vec2::new(0.0, -9.81));
     let (links, length, amplitude) = (10usize, 1.0f32, 30f32.to_radians());
     let centre = Vec3::new(amplitude.sin(), -amplitude.cos(), 0.0) * length;
-    let plank = spawn(
-        &mut app,
-        (
-            RigidBody::Dynamic,
-            Collider::rectangle(0.6, 0.04),
-            Mass(1.0),
-            Transform::from_translation(centre),
-        ),
-    );
-    let mut ends = Vec::new();
-    for side in [-0.3f32, 0.3] {
-        let top = Vec3::X * side;
-        let rope = {
-            let world = app.world_mut();
-            let rope = RopeBuilder::new(top, top + centre, links)
-                .mass(0.01)
-                .pin_start()
-                .spawn(&mut world.commands());
-            world.flush();
-            rope
-        };
-        let last = *rope.particles.last().unwrap();
-        let tie = BodyAttachment::new(plank, Vec2::new(side, 0.0));
-        app.world_mut().entity_mut(last).insert(tie);
-        ends.push((last, side));
-    }
+    let tops = [-0.3f32, 0.3].map(|side| (Vec3::X * side, side));
+    let (plank, ends, _) = plank_on_ropes(&mut app, centre, &tops);
     let radii = (1..=links).map(|i| f64::from(length) * i as f64 / links as f64);
     let inertia = 2.0 * radii.clone().map(|r| 0.01 * r * r).sum::<f64>() + 1.0;
     let moment = 2.0 * radii.map(|r| 0.01 * r).sum::<f64>() + 1.0;
@@ -1337,32 +1313,8 @@ fn a_plank_hung_in_a_vee_from_one_pin_keeps_its_energy() {
     // an anchor times two, it gained 1.18 J (12 % of m·g·L) and stretched 2.1 %.
     let mut app = app(Vec2::new(0.0, -9.81));
     let centre = Vec3::new(0.0, -1.0, 0.0);
-    let plank = spawn(
-        &mut app,
-        (
-            RigidBody::Dynamic,
-            Collider::rectangle(0.6, 0.04),
-            Mass(1.0),
-            Transform::from_translation(centre),
-        ),
-    );
-    let mut particles = Vec::new();
-    for side in [-0.3f32, 0.3] {
-        let rope = {
-            let world = app.world_mut();
-            let end = centre + Vec3::X * side;
-            let rope = RopeBuilder::new(Vec3::ZERO, end, 10)
-                .mass(0.01)
-                .pin_start()
-                .spawn(&mut world.commands());
-            world.flush();
-            rope
-        };
-        let last = *rope.particles.last().unwrap();
-        let tie = BodyAttachment::new(plank, Vec2::new(side, 0.0));
-        app.world_mut().entity_mut(last).insert(tie);
-        particles.extend(rope.particles);
-    }
+    let tops = [-0.3f32, 0.3].map(|side| (Vec3::ZERO, side));
+    let (plank, _, particles) = plank_on_ropes(&mut app, centre, &tops);
     let energy = |app: &App| {
         let state = app.world().resource::<VerletState>();
         let (solver, p) = (&state.solver, &state.solver.particles);
@@ -1407,4 +1359,42 @@ fn a_plank_hung_in_a_vee_from_one_pin_keeps_its_energy() {
         highest - start
     );
     assert!(strain < 5e-3, "strain {strain}");
+}
+
+/// A 1 kg, 60 × 4 cm plank at `centre`, and a rope of 10 links of 0.01 kg from a pin at each
+/// `(top, side)` to the plank's point `side` along it, tied there. Returns the plank, each
+/// rope's tied particle with its side, and every rope particle.
+fn plank_on_ropes(
+    app: &mut App,
+    centre: Vec3,
+    tops: &[(Vec3, f32)],
+) -> (Entity, Vec<(Entity, f32)>, Vec<Entity>) {
+    let plank = spawn(
+        app,
+        (
+            RigidBody::Dynamic,
+            Collider::rectangle(0.6, 0.04),
+            Mass(1.0),
+            Transform::from_translation(centre),
+        ),
+    );
+    let (mut ends, mut particles) = (Vec::new(), Vec::new());
+    for &(top, side) in tops {
+        let rope = {
+            let world = app.world_mut();
+            let end = centre + Vec3::X * side;
+            let rope = RopeBuilder::new(top, end, 10)
+                .mass(0.01)
+                .pin_start()
+                .spawn(&mut world.commands());
+            world.flush();
+            rope
+        };
+        let last = *rope.particles.last().unwrap();
+        let tie = BodyAttachment::new(plank, Vec2::new(side, 0.0));
+        app.world_mut().entity_mut(last).insert(tie);
+        ends.push((last, side));
+        particles.extend(rope.particles);
+    }
+    (plank, ends, particles)
 }
