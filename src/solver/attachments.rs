@@ -142,6 +142,13 @@ pub struct AttachmentScratch {
     arms: Vec<DVec3>,
 }
 
+impl AttachmentScratch {
+    /// Where body `b`'s attachments that take this substep are in `order`.
+    fn bucket(&self, b: usize) -> std::ops::Range<usize> {
+        self.starts[b] as usize..self.starts[b + 1] as usize
+    }
+}
+
 /// Before the relaxation: puts every due attachment's particle on its anchor (previous position
 /// on the anchor's previous position, a substep of its own back) and gives it the body's share
 /// of effective mass. `due`
@@ -180,8 +187,7 @@ pub fn lump(
         if let Some(gap) = riding_gap(a, body, particles, ratio) {
             let r = body.rotation * a.anchor;
             let w_own = particles.inverse_mass[a.particle as usize];
-            let joint = body.inverse_mass_matrix_at(r) + DMat3::from_diagonal(DVec3::splat(w_own));
-            let pull = joint.inverse() * gap;
+            let pull = meeting_alone(body, r, w_own, gap);
             if pull.is_finite() {
                 body.correct(r, -pull);
             }
@@ -216,6 +222,21 @@ pub fn lump(
             0.0
         };
     }
+}
+
+/// The correction `q` that meets a particle of inverse mass `w_own`, riding the anchor at arm
+/// `r`, half way across `gap`: `(W(r) + w_own·I) q = gap` (the body moves by `−W(r) q`, the
+/// particle by `w_own q`).
+fn meeting_alone(body: &Body, r: DVec3, w_own: f64, gap: DVec3) -> DVec3 {
+    let joint = body.inverse_mass_matrix_at(r) + DMat3::from_diagonal(DVec3::splat(w_own));
+    joint.inverse() * gap
+}
+
+/// The body's part `p` of the impulse `J` taken at the anchor at arm `r` by a particle of mass
+/// `own_mass` riding it: `p + m·W(r) p = J`.
+fn share_alone(body: &Body, r: DVec3, own_mass: f64, impulse: DVec3) -> DVec3 {
+    let share = DMat3::IDENTITY + body.inverse_mass_matrix_at(r) * own_mass;
+    share.inverse() * impulse
 }
 
 /// Lists the attachments that take this substep by body (`scratch.starts`, `scratch.order`),
@@ -287,8 +308,7 @@ pub fn release(
             // (p) and the particle riding its anchor: p + m·W p = J.
             let impulse = moved / w_lumped;
             let own_mass = 1.0 / scratch.own_inverse_mass[k];
-            let share = DMat3::IDENTITY + body.inverse_mass_matrix_at(r) * own_mass;
-            let p = share.inverse() * impulse;
+            let p = share_alone(body, r, own_mass, impulse);
             if p.is_finite() {
                 body.correct(r, p);
                 // Over the body's shorter substep that correction is too fast a velocity:

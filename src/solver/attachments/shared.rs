@@ -91,8 +91,7 @@ pub(super) fn inverse_mass(
         return body.inverse_mass_at(r, a.direction) * f64::from(shared);
     }
     let [d, _, arm] = scratch.pulls[k];
-    let bucket = scratch.starts[b] as usize..scratch.starts[b + 1] as usize;
-    (scratch.order[bucket].iter())
+    (scratch.order[scratch.bucket(b)].iter())
         .filter(|&&j| j == k || scratch.own_inverse_mass[j] > 0.0)
         .map(|&j| {
             let [other, turn, _] = scratch.pulls[j];
@@ -122,10 +121,10 @@ pub(super) fn meet_half_way(
         scratch.group.clear();
         scratch.shares.clear();
         let mut riding = false;
-        for i in scratch.starts[b] as usize..scratch.starts[b + 1] as usize {
+        for i in scratch.bucket(b) {
             let k = scratch.order[i];
             let (a, ratio) = (&attachments[k], scratch.time_ratio[k]);
-            if particles.inverse_mass[a.particle as usize] <= 0.0 {
+            if scratch.own_inverse_mass[k] <= 0.0 {
                 continue;
             }
             let gap = super::riding_gap(a, body, particles, ratio);
@@ -144,8 +143,7 @@ pub(super) fn meet_half_way(
                 // (A singular system: each riding particle met as if it were alone.)
                 let (a, ratio) = (&attachments[k], scratch.time_ratio[k]);
                 let gap = super::riding_gap(a, body, particles, ratio).unwrap_or(DVec3::ZERO);
-                let w_own = DMat3::from_diagonal(DVec3::splat(scratch.own_inverse_mass[k]));
-                (body.inverse_mass_matrix_at(scratch.arms[row]) + w_own).inverse() * gap
+                super::meeting_alone(body, scratch.arms[row], scratch.own_inverse_mass[k], gap)
             };
             if pull.is_finite() && pull != DVec3::ZERO {
                 body.correct(scratch.arms[row], -pull);
@@ -172,7 +170,7 @@ pub(super) fn release(
         // immovable), times its own inverse mass: `w_k p_k + Σ_j W(r_k, r_j) p_j = w_k J_k`.
         scratch.group.clear();
         scratch.shares.clear();
-        for i in scratch.starts[b] as usize..scratch.starts[b + 1] as usize {
+        for i in scratch.bucket(b) {
             let k = scratch.order[i];
             let a = &attachments[k];
             if scratch.own_inverse_mass[k] <= 0.0 {
@@ -193,9 +191,7 @@ pub(super) fn release(
                 DVec3::from_slice(&scratch.shares[3 * row..3 * row + 3])
             } else {
                 // (A singular system: each impulse shared as if its attachment were alone.)
-                let own_mass = 1.0 / scratch.own_inverse_mass[k];
-                let alone = DMat3::IDENTITY + body.inverse_mass_matrix_at(r) * own_mass;
-                alone.inverse() * impulse
+                super::share_alone(body, r, 1.0 / scratch.own_inverse_mass[k], impulse)
             };
             if share.is_finite() && share != DVec3::ZERO {
                 body.correct(r, share);
