@@ -1,10 +1,14 @@
 //! The solver core allocates nothing in a steady-state step: a counting global allocator
 //! watches 200 fixed steps of a scene that uses every feature (sticks of every kind, tearable
 //! sticks, angle constraints, tethers, a moving pin, colliders, substeps and iterations), a
-//! cloth with a hierarchy, and ropes, chains and trees solved by lines.
+//! cloth with a hierarchy, ropes, chains and trees solved by lines, and rigid bodies of another
+//! engine held by ropes and a cloth, as the avian layer couples them.
 
-use bevy_verlet_physics::solver::{Collider, Shape, Sleep, Solver, StepConfig, StickKind};
-use glam::DVec3;
+use bevy_verlet_physics::solver::{
+    Attachment, Body, Collider, ContactShape, EXACT_SHARING_UP_TO, External, ExternalCollider,
+    GlobalSubstep, Layers, Pose, Serial, Shape, Sleep, Solver, StepConfig, StickKind,
+};
+use glam::{DMat3, DQuat, DVec3};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
@@ -289,6 +293,233 @@ fn a_steady_state_step_of_lines_allocates_nothing() {
     assert!(
         solver.line_passes() > passes + 150 * 3,
         "the lines were solved"
+    );
+    assert_eq!(allocations, 0, "allocations in 150 steady-state steps");
+}
+
+/// A ball of `radius` around its pose's translation (what the avian layer's shapes answer).
+struct Ball(f64);
+
+impl ContactShape for Ball {
+    fn project(&self, pose: Pose, point: DVec3) -> (DVec3, bool) {
+        let d = point - pose.translation;
+        let surface = pose.translation + d.normalize_or(DVec3::Y) * self.0;
+        (surface, d.length() < self.0)
+    }
+    fn cast_ray(&self, pose: Pose, o: DVec3, d: DVec3, max: f64) -> Option<(f64, DVec3)> {
+        let m = o - pose.translation;
+        let b = m.dot(d);
+        let disc = b * b - (m.length_squared() - self.0 * self.0);
+        let t = -b - disc.max(0.0).sqrt();
+        (disc >= 0.0 && (0.0..=max).contains(&t))
+            .then(|| (t, (o + d * t - pose.translation).normalize()))
+    }
+    fn bounds(&self, pose: Pose) -> (DVec3, DVec3) {
+        (pose.translation - self.0, pose.translation + self.0)
+    }
+}
+
+/// A rope of `links` 5 cm links from a pin at `top` straight down; returns its last particle.
+fn rope_from(solver: &mut Solver, top: DVec3, links: usize) -> u32 {
+    let pin = solver.add_particle(top, 0.0);
+    solver.pin(pin, top);
+    let mut previous = pin;
+    for i in 1..=links {
+        let p = solver.add_particle(top - DVec3::Y * (0.05 * i as f64), 10.0);
+        let ends = [previous, p];
+        solver
+            .sticks
+            .push(ends, 0.05, 0.0, StickKind::Equal, f64::INFINITY, 0);
+        previous = p;
+    }
+    previous
+}
+
+/// A `width × rows` cloth of 5 cm cells hung by its top row from `corner`; returns the
+/// particles of its bottom row.
+fn cloth_from(solver: &mut Solver, corner: DVec3, (width, rows): (usize, usize)) -> Vec<u32> {
+    let first = solver.particles.len() as u32;
+    let at = |c: usize, r: usize| corner + DVec3::new(0.05 * c as f64, -0.05 * r as f64, 0.0);
+    for r in 0..rows {
+        for c in 0..width {
+            let i = solver.add_particle(at(c, r), 10.0);
+            if r == 0 {
+                solver.pin(i, at(c, r));
+            }
+        }
+    }
+    let index = |c: usize, r: usize| first + (r * width + c) as u32;
+    let mut stick = |a: u32, b: u32| {
+        let kind = StickKind::Equal;
+        solver
+            .sticks
+            .push([a, b], 0.05, 0.0, kind, f64::INFINITY, 0);
+    };
+    for r in 0..rows {
+        for c in 0..width {
+            if c + 1 < width {
+                stick(index(c, r), index(c + 1, r));
+            }
+            if r + 1 < rows {
+                stick(index(c, r), index(c, r + 1));
+            }
+        }
+    }
+    (0..width).map(|c| index(c, rows - 1)).collect()
+}
+
+/// What the avian layer hands the core every step, kept between steps as the plugin keeps it.
+struct Coupling {
+    external: External<Ball>,
+    bodies: Vec<Body>,
+    attachments: Vec<Attachment>,
+    layers: Vec<Layers>,
+    materials: Vec<Option<(f64, f64)>>,
+    contacts: usize,
+}
+
+impl Coupling {
+    /// A dynamic body falling under gravity, `1 / inverse_mass` kg.
+    fn falling(position: DVec3, inverse_mass: f64) -> Body {
+        let inertia = DMat3::from_diagonal(DVec3::splat(inverse_mass * 12.0));
+        let mut body = Body::dynamic(position, DQuat::IDENTITY, inverse_mass, inertia);
+        body.acceleration = DVec3::new(0.0, -9.81, 0.0);
+        body
+    }
+
+    /// Attaches each of `particles` to `body` where it is now.
+    fn attach(&mut self, solver: &Solver, particles: &[u32], body: u32) {
+        let centre = self.bodies[body as usize].position;
+        for &p in particles {
+            let anchor = solver.particles.position[p as usize] - centre;
+            self.attachments.push(Attachment::new(p, body, anchor));
+        }
+    }
+
+    /// One fixed step: the lists refilled (their capacity kept), the substeps run with the
+    /// bodies, and the bodies carried on from where the particles left them (the other
+    /// engine's step, here nothing but their own motion).
+    fn step(&mut self, solver: &mut Solver, config: &StepConfig) {
+        let external = &mut self.external;
+        external.bodies.clone_from(&self.bodies);
+        external.attachments.clone_from(&self.attachments);
+        external.colliders.clear();
+        external.colliders.extend([ball(0, 0.15), ball(3, 0.5)]);
+        external.particle_layers.clone_from(&self.layers);
+        external.particle_materials.clone_from(&self.materials);
+        external.begin_step(solver);
+        let count = solver.begin_step(config);
+        for index in 1..=count {
+            let config = *config;
+            let substep = GlobalSubstep {
+                config,
+                index,
+                count,
+                plain: false,
+            };
+            solver.integrate_substep(&substep, &Serial);
+            external.before_relax(solver, &substep);
+            solver.relax_substep(&substep, &Serial);
+            external.after_relax(solver);
+            solver.constrain_substep(&substep, &Serial);
+            external.after_constrain(solver, &substep);
+        }
+        solver.finish_step();
+        self.contacts += external.contacts;
+        for (kept, body) in self.bodies.iter_mut().zip(&mut external.bodies) {
+            body.take_impulse();
+            *kept = *body;
+        }
+        for (kept, used) in self.attachments.iter_mut().zip(&external.attachments) {
+            kept.direction = used.direction;
+        }
+    }
+}
+
+/// A ball collider of `radius` at `body`'s centre.
+fn ball(body: u32, radius: f64) -> ExternalCollider<Ball> {
+    ExternalCollider {
+        shape: Ball(radius),
+        body,
+        local: Pose::IDENTITY,
+        restitution: 0.3,
+        friction: 0.4,
+        layers: Layers::default(),
+        margin: 0.01,
+    }
+}
+
+/// Rigid bodies held by particles, coupled as the avian layer couples them: a box kicked on
+/// one rope (solved by lines), a plank on three ropes (their pulls shared exactly), a bar
+/// carrying the bottom edge of a 40-wide cloth (above `EXACT_SHARING_UP_TO` attachments: the
+/// count rule), a ball collider on the box and a static ball the cloth rests on, with particle
+/// layers and materials. At a 30 Hz step with `line_substeps` the attached islands take the
+/// bodies' substep count.
+fn coupled_scene() -> (Solver, Coupling) {
+    let mut solver = Solver::default();
+    let box_end = rope_from(&mut solver, DVec3::new(-2.0, 0.0, 0.0), 20);
+    let plank_ends = [-0.4, 0.0, 0.4].map(|x| rope_from(&mut solver, DVec3::new(x, 0.0, 0.0), 10));
+    let hem = cloth_from(&mut solver, DVec3::new(2.0, 0.0, 0.0), (40, 12));
+    solver.organize();
+    let stand = DQuat::IDENTITY;
+    let mut coupling = Coupling {
+        external: External::default(),
+        bodies: vec![
+            Coupling::falling(DVec3::new(-1.9, -1.1, 0.0), 0.5),
+            Coupling::falling(DVec3::new(0.0, -0.55, 0.0), 0.2),
+            Coupling::falling(DVec3::new(2.975, -0.6, 0.0), 0.25),
+            Body::kinematic(DVec3::new(3.0, -0.3, 0.45), stand, DVec3::ZERO, DVec3::ZERO),
+        ],
+        attachments: Vec::new(),
+        layers: (0..solver.particles.len())
+            .map(|i| Layers {
+                memberships: 1 + (i % 2) as u32,
+                filters: u32::MAX,
+            })
+            .collect(),
+        materials: (0..solver.particles.len())
+            .map(|i| (i % 3 == 0).then_some((0.1, 0.9)))
+            .collect(),
+        contacts: 0,
+    };
+    coupling.bodies[0].velocity = DVec3::new(1.0, 0.0, 0.5);
+    coupling.attach(&solver, &[box_end], 0);
+    coupling.attach(&solver, &plank_ends, 1);
+    coupling.attach(&solver, &hem, 2);
+    assert!(hem.len() > EXACT_SHARING_UP_TO as usize);
+    (solver, coupling)
+}
+
+#[test]
+fn a_steady_state_step_with_rigid_bodies_allocates_nothing() {
+    let (mut solver, mut coupling) = coupled_scene();
+    let config = StepConfig {
+        timestep: 1.0 / 30.0,
+        line_substeps: Some(2),
+        ..StepConfig::default()
+    };
+    for _ in 0..10 {
+        coupling.step(&mut solver, &config);
+    }
+    let start = (
+        coupling.contacts,
+        coupling.bodies[0].position,
+        solver.line_passes(),
+    );
+    let allocations = allocations_in(|| {
+        for _ in 0..150 {
+            coupling.step(&mut solver, &config);
+        }
+    });
+    assert!(solver.particles.position.iter().all(|p| p.is_finite()));
+    let body_finite = |b: &Body| b.position.is_finite() && b.velocity.is_finite();
+    assert!(coupling.bodies.iter().all(body_finite));
+    assert!(coupling.contacts > start.0, "particles met the balls");
+    let swing = (coupling.bodies[0].position - start.1).length();
+    assert!(swing > 0.05, "the box swung: {swing}");
+    assert!(
+        solver.line_passes() > start.2,
+        "the ropes were solved by lines"
     );
     assert_eq!(allocations, 0, "allocations in 150 steady-state steps");
 }
