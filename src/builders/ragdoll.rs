@@ -7,7 +7,7 @@
 //! * the body spawns in a standing pose instead of all points within ±5 px of one spot (a
 //!   collapsed start the constraints then blow apart);
 //! * the seed's soft links (torso 0.8, "invisible" pelvis–head 0.02 and foot–shoulder 0.001,
-//!   tuned at 3 passes per 16 ms step) become [`Stiffness::Seed`](crate::Stiffness::Seed)
+//!   tuned at 3 passes per 16 ms step) become [`Stiffness::Seed`]
 //!   compliances, so they feel the same at any substep count;
 //! * elbows and knees get joint limits: one-sided (at-least) sticks between the outer
 //!   particles whose length comes from the law of cosines, `√(A² + B² − 2AB·cos θ_min)` — the

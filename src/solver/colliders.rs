@@ -226,7 +226,7 @@ pub fn constrain(particles: &mut Particles, colliders: &[Collider], gravity_step
 
 /// [`constrain`] for the particles in `range` (which no other task touches), given their
 /// inverse masses and radii. With a `grid` over the colliders (see
-/// [`ColliderGrid`](super::collider_grid::ColliderGrid)) each particle meets only the colliders
+/// [`ColliderGrid`]) each particle meets only the colliders
 /// near it, in their order: the same result as meeting them all, unless a contact pushes it
 /// farther than its radius plus its motion (out of a deep overlap).
 pub(crate) fn constrain_range(

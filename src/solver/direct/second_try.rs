@@ -15,7 +15,7 @@
 //! # How
 //! Where a line alone in its island and within reach of its curvature passes (see
 //! [`LineSolve::project`]) ends converged but farther from its prediction than
-//! [`WARM_START_REACH`](super::WARM_START_REACH) times the start of the substep is and farther
+//! [`WARM_START_REACH`] times the start of the substep is and farther
 //! than the start plus its pins' reach ([`LineSolve::pins_reach`]: a point that satisfies the
 //! constraints once the pins moved is that much farther at most), or ends unconverged while its
 //! pins stand still, its iterate is kept and full Newton passes run from the start of the
