@@ -44,6 +44,16 @@
 //! ropes swung 4.6 % fast (now 0.09 % slow, `tests/avian3d.rs`) and a plank hung in a V from
 //! one pin gained 12 % of m·g·L (now 7·10⁻⁶ of it).
 //!
+//! Each rope's solve still sees its body through one effective mass while the body answers
+//! every pull at once, so after [`release`] a particle put back on its anchor can be as far
+//! from where its rope left it as the rope moved it ([`AttachmentScratch::mismatch`]): a
+//! stretch the next substep takes back, pumping energy into the body as a rope snaps taut.
+//! [`External::after_relax`](super::External::after_relax) therefore repeats the exchange
+//! within the substep for bodies holding several attachments: [`relump`], the ropes solved
+//! by lines solved again from where the body put their ends, [`release`] — the direction each
+//! end is pulled in between exchanges being the last exchange's, and for the next substep that
+//! of all of them together ([`settle_pulls`]).
+//!
 //! An island that takes fewer substeps than the bodies (its own `IslandOverride`, raised to a
 //! count that divides the bodies' so that each of its substeps ends with one of theirs:
 //! [`substeps_aligned_with`](super::substeps_aligned_with); under `line_substeps`, and beside
@@ -140,9 +150,31 @@ pub struct AttachmentScratch {
     group: Vec<usize>,
     shares: Vec<f64>,
     arms: Vec<DVec3>,
+    /// The impulse each particle took from its constraints over this substep's exchanges (its
+    /// pull direction is kept for the next substep).
+    pulled: Vec<DVec3>,
+
+    /// The last [`release`]'s largest gap between where the constraints left a lumped particle
+    /// and its anchor after the body moved, and its largest move by the constraints (m).
+    mismatch: (f64, f64),
 }
 
 impl AttachmentScratch {
+    /// What the last [`release`] left: the largest gap between where the constraints had put
+    /// a lumped particle and its anchor once the bodies moved (each particle is then put on
+    /// its anchor, so the gap is left in its constraints), and the largest distance the
+    /// constraints had moved one (m). One body holding one attachment leaves no gap along its
+    /// pull; several leave gaps of the size of their moves, as each rope's solve saw the body
+    /// through an effective mass while the body answered every pull at once.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::AttachmentScratch;
+    /// assert_eq!(AttachmentScratch::default().mismatch(), (0.0, 0.0));
+    /// ```
+    pub fn mismatch(&self) -> (f64, f64) {
+        self.mismatch
+    }
+
     /// Where body `b`'s attachments that take this substep are in `order`.
     fn bucket(&self, b: usize) -> std::ops::Range<usize> {
         self.starts[b] as usize..self.starts[b + 1] as usize
@@ -161,12 +193,27 @@ pub fn lump(
     scratch: &mut AttachmentScratch,
     due: impl Fn(usize) -> Option<f64>,
 ) {
+    scratch.velocity_corrections.clear();
+    scratch.pulled.clear();
+    relump(attachments, bodies, particles, scratch, due);
+}
+
+/// [`lump`] for a later exchange of the same substep, after [`release`] (see
+/// [`External::after_relax`](super::External::after_relax)): the particles are put on their
+/// anchors again and lumped, the velocity corrections of the earlier exchanges kept.
+pub fn relump(
+    attachments: &[Attachment],
+    bodies: &mut [Body],
+    particles: &mut Particles,
+    scratch: &mut AttachmentScratch,
+    due: impl Fn(usize) -> Option<f64>,
+) {
     let n = attachments.len();
     scratch.own_inverse_mass.resize(n, 0.0);
     scratch.body_inverse_mass.resize(n, 0.0);
     scratch.time_ratio.resize(n, 1.0);
     scratch.placed.resize(n, DVec3::ZERO);
-    scratch.velocity_corrections.clear();
+    scratch.pulled.resize(n, DVec3::ZERO);
     scratch.per_body.clear();
     scratch.per_body.resize(bodies.len(), 0);
     for (k, a) in attachments.iter().enumerate() {
@@ -319,14 +366,34 @@ pub fn release(
                     scratch.velocity_corrections.push(slower);
                 }
             }
+            scratch.pulled[k] += impulse;
             a.direction = moved.normalize();
         }
     }
+    let (mut gap, mut moved) = (0.0f64, 0.0f64);
     for (k, a) in attachments.iter().enumerate() {
         let p = a.particle as usize;
         particles.inverse_mass[p] = scratch.own_inverse_mass[k];
         if !scratch.body_inverse_mass[k].is_nan() {
-            particles.position[p] = a.world_anchor(&bodies[a.body as usize]);
+            let anchor = a.world_anchor(&bodies[a.body as usize]);
+            if scratch.per_body[a.body as usize] > 1 {
+                gap = gap.max((anchor - particles.position[p]).length());
+                moved = moved.max((particles.position[p] - scratch.placed[k]).length());
+            }
+            particles.position[p] = anchor;
+        }
+    }
+    scratch.mismatch = (gap, moved);
+}
+
+/// After the last exchange of a substep: each attachment keeps, as the direction its particle
+/// is pulled in (its effective mass in the next substep), that of everything its particle took
+/// over the substep's exchanges. (Between exchanges it is the last exchange's: a later one
+/// corrects what the earlier left, so its effective mass is taken along that correction.)
+pub fn settle_pulls(attachments: &mut [Attachment], scratch: &AttachmentScratch) {
+    for (a, pulled) in attachments.iter_mut().zip(&scratch.pulled) {
+        if let Some(direction) = pulled.try_normalize() {
+            a.direction = direction;
         }
     }
 }

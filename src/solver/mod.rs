@@ -98,12 +98,14 @@ mod tethers;
 pub mod tree;
 
 pub use angles::{Angles, relax_angles};
-pub use attachments::{Attachment, AttachmentScratch, EXACT_SHARING_UP_TO, lump, release};
+pub use attachments::{
+    Attachment, AttachmentScratch, EXACT_SHARING_UP_TO, lump, release, relump, settle_pulls,
+};
 pub use bodies::{Body, Pose};
 pub use colliders::{Collider, Shape, constrain};
 pub use colouring::Batch;
 pub use contacts::{ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle};
-pub use external::External;
+pub use external::{COUPLING_CONTRACTION, COUPLING_ROUNDS, COUPLING_TOLERANCE, External};
 pub use hierarchy::{Hierarchy, HierarchySet};
 pub use integrate::{consistent_previous, integrate, resubstep};
 pub use islands::{

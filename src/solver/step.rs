@@ -480,6 +480,62 @@ impl Solver {
         self.give_back(taken);
     }
 
+    /// A later round of the relaxation (no warm start; multipliers carried on) for the islands
+    /// solved by lines that take global substep `global` and hold one of `particles` (sorted),
+    /// on the calling thread. For another engine's bodies: after they took their attached
+    /// particles' pull, the ropes are solved again from where the bodies put their ends (see
+    /// [`External::after_relax`](super::External::after_relax)). Returns whether an island was
+    /// solved.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{GlobalSubstep, Serial, Solver, StepConfig, StickKind};
+    /// use glam::DVec3;
+    /// let mut solver = Solver::default();
+    /// let pin = solver.add_particle(DVec3::ZERO, 0.0);
+    /// solver.pin(pin, DVec3::ZERO);
+    /// let end = solver.add_particle(DVec3::new(0.0, -1.0, 0.0), 1.0);
+    /// solver.sticks.push([pin, end], 1.0, 0.0, StickKind::Equal, f64::INFINITY, 0);
+    /// solver.organize();
+    /// let config = StepConfig::default();
+    /// let count = solver.begin_step(&config);
+    /// let substep = GlobalSubstep { config, index: 1, count, plain: false };
+    /// solver.integrate_substep(&substep, &Serial);
+    /// solver.relax_substep(&substep, &Serial);
+    /// solver.particles.position[end as usize].y -= 0.01; // moved after the solve
+    /// assert!(solver.relax_lines_again(&substep, &[end]));
+    /// assert!(solver.sticks.max_violation(&solver.particles) < 1e-9);
+    /// ```
+    pub fn relax_lines_again(&mut self, global: &GlobalSubstep, particles: &[u32]) -> bool {
+        self.check_layout();
+        let mut taken = self.take();
+        let islands = &self.islands;
+        let (mut solved, mut passes) = (false, 0);
+        {
+            let views = views(&mut taken);
+            for (island, substep) in due(&islands.list, global) {
+                let slots = range(&island.particles);
+                let first = particles.partition_point(|&p| (p as usize) < slots.start);
+                let holds = particles
+                    .get(first)
+                    .is_some_and(|&p| slots.contains(&(p as usize)));
+                if island.method != Method::Lines || !holds {
+                    continue;
+                }
+                // SAFETY: one task holds every island (this thread), and its layout matches the
+                // topology (`check_layout`).
+                passes += unsafe {
+                    let passes = self.solve_lines_of(&views, islands, island, &substep, false);
+                    self.relax_rest_of(&views, island, &substep);
+                    passes
+                };
+                solved = true;
+            }
+        }
+        self.line_passes.0.fetch_add(passes, Ordering::Relaxed);
+        self.give_back(taken);
+        solved
+    }
+
     /// Third phase of a substep: colliders (skipped when there are none).
     pub fn constrain_substep(&mut self, global: &GlobalSubstep, executor: &dyn Executor) {
         if self.colliders.is_empty() {

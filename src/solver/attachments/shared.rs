@@ -183,7 +183,8 @@ pub(super) fn release(
                 .extend((impulse * scratch.own_inverse_mass[k]).to_array());
         }
         let solved = solve_joint(attachments, body, scratch);
-        for (row, &k) in scratch.group.iter().enumerate() {
+        for row in 0..scratch.group.len() {
+            let k = scratch.group[row];
             let a = &mut attachments[k];
             let impulse = taken(a, k, particles, scratch);
             let r = scratch.arms[row];
@@ -202,6 +203,7 @@ pub(super) fn release(
                 }
             }
             if impulse != DVec3::ZERO {
+                scratch.pulled[k] += impulse;
                 a.direction = impulse.normalize();
             }
         }
