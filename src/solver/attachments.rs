@@ -193,27 +193,14 @@ pub fn lump(
     scratch: &mut AttachmentScratch,
     due: impl Fn(usize) -> Option<f64>,
 ) {
-    scratch.velocity_corrections.clear();
-    scratch.pulled.clear();
-    relump(attachments, bodies, particles, scratch, due);
-}
-
-/// [`lump`] for a later exchange of the same substep, after [`release`] (see
-/// [`External::after_relax`](super::External::after_relax)): the particles are put on their
-/// anchors again and lumped, the velocity corrections of the earlier exchanges kept.
-pub fn relump(
-    attachments: &[Attachment],
-    bodies: &mut [Body],
-    particles: &mut Particles,
-    scratch: &mut AttachmentScratch,
-    due: impl Fn(usize) -> Option<f64>,
-) {
     let n = attachments.len();
     scratch.own_inverse_mass.resize(n, 0.0);
     scratch.body_inverse_mass.resize(n, 0.0);
     scratch.time_ratio.resize(n, 1.0);
     scratch.placed.resize(n, DVec3::ZERO);
+    scratch.pulled.clear();
     scratch.pulled.resize(n, DVec3::ZERO);
+    scratch.velocity_corrections.clear();
     scratch.per_body.clear();
     scratch.per_body.resize(bodies.len(), 0);
     for (k, a) in attachments.iter().enumerate() {
@@ -222,10 +209,10 @@ pub fn relump(
         if !scratch.time_ratio[k].is_nan() {
             scratch.per_body[a.body as usize] += 1;
         }
+        scratch.own_inverse_mass[k] = particles.inverse_mass[a.particle as usize];
     }
     sort_by_body(attachments, scratch);
     for (k, a) in attachments.iter().enumerate() {
-        scratch.own_inverse_mass[k] = particles.inverse_mass[a.particle as usize];
         let body = &mut bodies[a.body as usize];
         let ratio = scratch.time_ratio[k];
         if ratio.is_nan() || scratch.per_body[a.body as usize] > 1 {
@@ -241,6 +228,34 @@ pub fn relump(
         }
     }
     shared::meet_half_way(attachments, bodies, particles, scratch);
+    place(attachments, bodies, particles, scratch, true);
+}
+
+/// [`lump`] for a later exchange of the same substep, after [`release`] (see
+/// [`External::after_relax`](super::External::after_relax)): the particles, which `release`
+/// put on their anchors, are lumped again with the body's effective mass along their last
+/// exchange's pull. What `lump` did once per substep is not done again: the particles' start
+/// of the substep (their previous positions) stays, riding particles are not met half way
+/// again, and the velocity corrections of the earlier exchanges are kept.
+pub fn relump(
+    attachments: &[Attachment],
+    bodies: &[Body],
+    particles: &mut Particles,
+    scratch: &mut AttachmentScratch,
+) {
+    place(attachments, bodies, particles, scratch, false);
+}
+
+/// Puts every due attachment's particle on its anchor with its lumped inverse mass (and, at
+/// the `start` of the substep, its previous position on the anchor's, a substep of its own
+/// back).
+fn place(
+    attachments: &[Attachment],
+    bodies: &[Body],
+    particles: &mut Particles,
+    scratch: &mut AttachmentScratch,
+    start: bool,
+) {
     shared::prepare_pulls(attachments, bodies, scratch);
     for (k, a) in attachments.iter().enumerate() {
         let p = a.particle as usize;
@@ -250,7 +265,7 @@ pub fn relump(
             scratch.body_inverse_mass[k] = f64::NAN; // not lumped
             continue;
         }
-        let w_own = particles.inverse_mass[p];
+        let w_own = scratch.own_inverse_mass[k];
         let r = body.rotation * a.anchor;
         let w_body = if scratch.per_body[a.body as usize] > 1 {
             shared::inverse_mass(attachments, k, body, scratch)
@@ -260,8 +275,10 @@ pub fn relump(
         scratch.body_inverse_mass[k] = w_body;
         let anchor = a.world_anchor(body);
         particles.position[p] = anchor;
-        // (Its Verlet state in its own substep: the anchor's motion over the body's, scaled.)
-        particles.previous[p] = anchor - (anchor - a.previous_anchor(body)) / ratio;
+        if start {
+            // (Its Verlet state in its own substep: the anchor's motion over the body's, scaled.)
+            particles.previous[p] = anchor - (anchor - a.previous_anchor(body)) / ratio;
+        }
         scratch.placed[k] = anchor;
         particles.inverse_mass[p] = if w_body > 0.0 && w_own > 0.0 {
             1.0 / (1.0 / w_own + 1.0 / w_body)

@@ -513,12 +513,7 @@ impl Solver {
         {
             let views = views(&mut taken);
             for (island, substep) in due(&islands.list, global) {
-                let slots = range(&island.particles);
-                let first = particles.partition_point(|&p| (p as usize) < slots.start);
-                let holds = particles
-                    .get(first)
-                    .is_some_and(|&p| slots.contains(&(p as usize)));
-                if island.method != Method::Lines || !holds {
+                if !lines_holding(island, particles) {
                     continue;
                 }
                 // SAFETY: one task holds every island (this thread), and its layout matches the
@@ -534,6 +529,12 @@ impl Solver {
         self.line_passes.0.fetch_add(passes, Ordering::Relaxed);
         self.give_back(taken);
         solved
+    }
+
+    /// Whether [`Solver::relax_lines_again`] would solve an island: one solved by lines, due in
+    /// `global`, holds one of `particles` (sorted).
+    pub(crate) fn has_lines_again(&self, global: &GlobalSubstep, particles: &[u32]) -> bool {
+        due(&self.islands.list, global).any(|(island, _)| lines_holding(island, particles))
     }
 
     /// Third phase of a substep: colliders (skipped when there are none).
@@ -1098,6 +1099,16 @@ fn run_jobs(executor: &dyn Executor, jobs: usize, job: &(dyn Fn(usize) + Sync)) 
 
 /// The islands that take a substep now, with their substep contexts (a symmetric island's
 /// iterations in pairs, see [`GlobalSubstep::for_island`]).
+/// Whether `island` is solved by lines and holds one of `particles` (sorted).
+fn lines_holding(island: &Island, particles: &[u32]) -> bool {
+    let slots = range(&island.particles);
+    let first = particles.partition_point(|&p| (p as usize) < slots.start);
+    island.method == Method::Lines
+        && particles
+            .get(first)
+            .is_some_and(|&p| slots.contains(&(p as usize)))
+}
+
 fn due<'a>(
     islands: &'a [Island],
     global: &'a GlobalSubstep,
