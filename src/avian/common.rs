@@ -109,6 +109,10 @@ pub struct AvianCouplingStats {
     pub attachments: usize,
     /// Particle–collider contacts resolved (summed over substeps).
     pub contacts: usize,
+    /// Exchanges between bodies and the ropes tied to them beyond the first of each substep
+    /// (summed over substeps): where a body holds several ropes solved by lines, they are
+    /// solved again from where the body put their ends (see `solver::COUPLING_ROUNDS`).
+    pub later_exchanges: usize,
 }
 
 /// avian's `Collider`, as the core's [`ContactShape`].
@@ -652,6 +656,7 @@ fn apply_impulses(
         colliders: coupled.external.colliders.len(),
         attachments: coupled.external.attachments.len(),
         contacts: coupled.external.contacts,
+        later_exchanges: coupled.external.later_exchanges,
     };
     // Keep each attachment's pull direction for the next step.
     coupled.pull.clear();

@@ -112,6 +112,9 @@ pub struct External<S> {
     pub particle_materials: Vec<Option<(f64, f64)>>,
     /// Contacts resolved in the last step.
     pub contacts: usize,
+    /// Exchanges between bodies and their ropes after the first of each substep, in the last
+    /// step (see [`External::after_relax`]).
+    pub later_exchanges: usize,
     /// The bodies attached to each island (no contacts with them): island indices, sorted,
     /// and beside each the body (`connected_body`), without repeats.
     connected_island: Vec<u32>,
@@ -149,6 +152,7 @@ impl<S> Default for External<S> {
             particle_layers: Vec::new(),
             particle_materials: Vec::new(),
             contacts: 0,
+            later_exchanges: 0,
             connected_island: Vec::new(),
             connected_body: Vec::new(),
             connected_pairs: Vec::new(),
@@ -208,6 +212,7 @@ impl<S: ContactShape> External<S> {
         }
         self.attached.sort_unstable();
         self.contacts = 0;
+        self.later_exchanges = 0;
         self.max_radius = if self.colliders.is_empty() {
             0.0
         } else {
@@ -299,6 +304,7 @@ impl<S: ContactShape> External<S> {
                 break;
             }
             exchanges += 1;
+            self.later_exchanges += 1;
         }
         if exchanges > 1 {
             settle_pulls(&mut self.attachments, &self.scratch);
