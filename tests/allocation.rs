@@ -6,7 +6,7 @@
 
 use bevy_verlet_physics::solver::{
     Attachment, Body, Collider, ContactShape, EXACT_SHARING_UP_TO, External, ExternalCollider,
-    GlobalSubstep, Layers, Pose, Serial, Shape, Sleep, Solver, StepConfig, StickKind,
+    Layers, Pose, Serial, Shape, Sleep, Solver, StepConfig, StickKind,
 };
 use glam::{DMat3, DQuat, DVec3};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -407,24 +407,7 @@ impl Coupling {
         external.colliders.extend([ball(0, 0.15), ball(3, 0.5)]);
         external.particle_layers.clone_from(&self.layers);
         external.particle_materials.clone_from(&self.materials);
-        external.begin_step(solver);
-        let count = solver.begin_step(config);
-        for index in 1..=count {
-            let config = *config;
-            let substep = GlobalSubstep {
-                config,
-                index,
-                count,
-                plain: false,
-            };
-            solver.integrate_substep(&substep, &Serial);
-            external.before_relax(solver, &substep);
-            solver.relax_substep(&substep, &Serial);
-            external.after_relax(solver);
-            solver.constrain_substep(&substep, &Serial);
-            external.after_constrain(solver, &substep);
-        }
-        solver.finish_step();
+        external.step(solver, config, &Serial);
         self.contacts += external.contacts;
         for (kept, body) in self.bodies.iter_mut().zip(&mut external.bodies) {
             body.take_impulse();

@@ -1264,7 +1264,7 @@ fn a_plank_swung_on_two_ropes_keeps_its_period_and_stays_level() {
     let (links, length, amplitude) = (10usize, 1.0f32, 30f32.to_radians());
     let centre = Vec3::new(amplitude.sin(), -amplitude.cos(), 0.0) * length;
     let tops = [-0.3f32, 0.3].map(|side| (Vec3::X * side, side));
-    let (plank, ends, _) = plank_on_ropes(&mut app, centre, &tops);
+    let (plank, ends, _) = plank_on_ropes(&mut app, &PLANK, centre, &tops);
     let radii = (1..=links).map(|i| f64::from(length) * i as f64 / links as f64);
     let inertia = 2.0 * radii.clone().map(|r| 0.01 * r * r).sum::<f64>() + 1.0;
     let moment = 2.0 * radii.map(|r| 0.01 * r).sum::<f64>() + 1.0;
@@ -1314,7 +1314,7 @@ fn a_plank_hung_in_a_vee_from_one_pin_keeps_its_energy() {
     let mut app = app(Vec2::new(0.0, -9.81));
     let centre = Vec3::new(0.0, -1.0, 0.0);
     let tops = [-0.3f32, 0.3].map(|side| (Vec3::ZERO, side));
-    let (plank, _, particles) = plank_on_ropes(&mut app, centre, &tops);
+    let (plank, _, particles) = plank_on_ropes(&mut app, &PLANK, centre, &tops);
     let energy = |app: &App| plank_and_ropes_energy(app, plank, &particles);
     step(&mut app, 2);
     let start = energy(&app);
@@ -1339,11 +1339,31 @@ fn a_plank_hung_in_a_vee_from_one_pin_keeps_its_energy() {
     assert!(strain < 5e-3, "strain {strain}");
 }
 
-/// A 1 kg, 60 × 4 cm plank at `centre`, and a rope of 10 links of 0.01 kg from a pin at each
-/// `(top, side)` to the plank's point `side` along it, tied there. Returns the plank, each
-/// rope's tied particle with its side, and every rope particle.
+/// A plank hung on ropes (see [`plank_on_ropes`]).
+struct Hung {
+    /// The plank's width (m; 4 cm thick) and mass (kg).
+    width: f32,
+    mass: f32,
+    /// Links per rope (0.01 kg each).
+    links: usize,
+    /// The mass of the particle tied to the plank (kg), if not a link's.
+    knot: Option<f32>,
+}
+
+/// A 1 kg, 60 cm plank on ropes of 10 links.
+const PLANK: Hung = Hung {
+    width: 0.6,
+    mass: 1.0,
+    links: 10,
+    knot: None,
+};
+
+/// A `hung` plank at `centre`, and a rope from a pin at each `(top, side)` to the plank's point
+/// `side` along it, tied there. Returns the plank, each rope's tied particle with its side, and
+/// every rope particle.
 fn plank_on_ropes(
     app: &mut App,
+    hung: &Hung,
     centre: Vec3,
     tops: &[(Vec3, f32)],
 ) -> (Entity, Vec<(Entity, f32)>, Vec<Entity>) {
@@ -1351,26 +1371,27 @@ fn plank_on_ropes(
         app,
         (
             RigidBody::Dynamic,
-            Collider::rectangle(0.6, 0.04),
-            Mass(1.0),
+            Collider::rectangle(hung.width, 0.04),
+            Mass(hung.mass),
             Transform::from_translation(centre),
         ),
     );
     let (mut ends, mut particles) = (Vec::new(), Vec::new());
     for &(top, side) in tops {
-        let rope = {
-            let world = app.world_mut();
-            let end = centre + Vec3::X * side;
-            let rope = RopeBuilder::new(top, end, 10)
-                .mass(0.01)
-                .pin_start()
-                .spawn(&mut world.commands());
-            world.flush();
-            rope
-        };
+        let world = app.world_mut();
+        let end = centre + Vec3::X * side;
+        let rope = RopeBuilder::new(top, end, hung.links)
+            .mass(0.01)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
         let last = *rope.particles.last().unwrap();
-        let tie = BodyAttachment::new(plank, Vec2::new(side, 0.0));
-        app.world_mut().entity_mut(last).insert(tie);
+        let mut knot = world.entity_mut(last);
+        knot.insert(BodyAttachment::new(plank, Vec2::new(side, 0.0)));
+        if let Some(mass) = hung.knot {
+            let mut particle = knot.get_mut::<Particle>().unwrap();
+            *particle = particle.clone().with_mass(mass);
+        }
         ends.push((last, side));
         particles.extend(rope.particles);
     }
@@ -1459,29 +1480,13 @@ fn kicked_bodies_on_several_ropes_hold_their_length_and_energy() {
             continue; // (the same random sequence as the scan's)
         }
         let mut app = app(Vec2::new(0.0, -9.81));
-        let body = (
-            RigidBody::Dynamic,
-            Collider::rectangle(width, 0.04),
-            Mass(mass),
-        );
-        let plank = spawn(&mut app, (body, Transform::from_translation(centre)));
-        let mut particles = Vec::new();
-        for &(top, side) in &tops {
-            let world = app.world_mut();
-            let end = centre + Vec3::X * side;
-            let rope = RopeBuilder::new(top, end, 8)
-                .mass(0.01)
-                .pin_start()
-                .spawn(&mut world.commands());
-            world.flush();
-            let last = *rope.particles.last().unwrap();
-            let tie = BodyAttachment::new(plank, Vec2::new(side, 0.0));
-            let mut knotted = world.entity_mut(last);
-            knotted.insert(tie);
-            let mut particle = knotted.get_mut::<Particle>().unwrap();
-            *particle = particle.clone().with_mass(knot);
-            particles.extend(rope.particles);
-        }
+        let hung = Hung {
+            width,
+            mass,
+            links: 8,
+            knot: Some(knot),
+        };
+        let (plank, _, particles) = plank_on_ropes(&mut app, &hung, centre, &tops);
         step(&mut app, 2);
         app.world_mut().get_mut::<LinearVelocity>(plank).unwrap().0 = kick;
         app.world_mut().get_mut::<AngularVelocity>(plank).unwrap().0 = spin;

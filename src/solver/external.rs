@@ -20,7 +20,7 @@ use super::collider_grid::ColliderGrid;
 use super::contacts::{
     ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle_with,
 };
-use super::{Attachment, GlobalSubstep, Method, Solver, Substep};
+use super::{Attachment, Executor, GlobalSubstep, Method, Solver, StepConfig, Substep};
 use glam::DVec3;
 use std::ops::Range;
 
@@ -80,18 +80,7 @@ pub const COUPLING_CONTRACTION: f64 = 0.3;
 /// external.attachments.push(Attachment::new(end, 0, DVec3::ZERO));
 /// let config = StepConfig::default();
 /// for _ in 0..60 {
-///     external.begin_step(&mut solver);
-///     let count = solver.begin_step(&config);
-///     for index in 1..=count {
-///         let substep = GlobalSubstep { config, index, count, plain: false };
-///         solver.integrate_substep(&substep, &Serial);
-///         external.before_relax(&mut solver, &substep);
-///         solver.relax_substep(&substep, &Serial);
-///         external.after_relax(&mut solver);
-///         solver.constrain_substep(&substep, &Serial);
-///         external.after_constrain(&mut solver, &substep);
-///     }
-///     solver.finish_step();
+///     external.step(&mut solver, &config, &Serial); // the phases above, in order
 ///     // The rope held the body: an impulse of about m·g·Δt upwards per step.
 ///     let (impulse, _) = external.bodies[0].take_impulse();
 ///     assert!((impulse.y - 9.81 / 60.0).abs() < 0.02, "{impulse}");
@@ -174,6 +163,36 @@ impl<S> Default for External<S> {
 }
 
 impl<S: ContactShape> External<S> {
+    /// One fixed step of `solver` with these bodies, the lists filled: [`External::begin_step`],
+    /// then per substep the solver's phases with this one's between them (see the
+    /// [module docs](self)), and [`Solver::finish_step`]. Returns how many sticks tore. (The
+    /// Bevy layer runs the same phases as systems.) See [`External`] for an example.
+    pub fn step(
+        &mut self,
+        solver: &mut Solver,
+        config: &StepConfig,
+        executor: &dyn Executor,
+    ) -> usize {
+        self.begin_step(solver);
+        let count = solver.begin_step(config);
+        for index in 1..=count {
+            let config = *config;
+            let substep = GlobalSubstep {
+                config,
+                index,
+                count,
+                plain: false,
+            };
+            solver.integrate_substep(&substep, executor);
+            self.before_relax(solver, &substep);
+            solver.relax_substep(&substep, executor);
+            self.after_relax(solver);
+            solver.constrain_substep(&substep, executor);
+            self.after_constrain(solver, &substep);
+        }
+        solver.finish_step()
+    }
+
     /// Whether there is nothing to couple (every pass is skipped).
     pub fn is_empty(&self) -> bool {
         self.bodies.is_empty()
@@ -448,7 +467,7 @@ fn island_key(solver: &Solver, slot: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::solver::{Body, Serial, StepConfig, StickKind};
+    use crate::solver::{Body, Serial, StickKind};
     use glam::{DMat3, DQuat};
 
     /// No collider: attachments only.
@@ -508,23 +527,7 @@ mod tests {
         external.attachments = attachments;
         let (config, mut strain) = (StepConfig::default(), 0.0f64);
         for _ in 0..128 {
-            external.begin_step(&mut solver);
-            let count = solver.begin_step(&config);
-            for index in 1..=count {
-                let substep = GlobalSubstep {
-                    config,
-                    index,
-                    count,
-                    plain: false,
-                };
-                solver.integrate_substep(&substep, &Serial);
-                external.before_relax(&mut solver, &substep);
-                solver.relax_substep(&substep, &Serial);
-                external.after_relax(&mut solver);
-                solver.constrain_substep(&substep, &Serial);
-                external.after_constrain(&mut solver, &substep);
-            }
-            solver.finish_step();
+            external.step(&mut solver, &config, &Serial);
             external.bodies[0].take_impulse();
             let sticks = &solver.sticks;
             for i in 0..sticks.len() {

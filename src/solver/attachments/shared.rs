@@ -118,20 +118,13 @@ pub(super) fn meet_half_way(
         if scratch.per_body[b] <= 1 || !body.is_dynamic() {
             continue;
         }
-        scratch.group.clear();
-        scratch.shares.clear();
         let mut riding = false;
-        for i in scratch.bucket(b) {
-            let k = scratch.order[i];
+        group_movable(b, scratch, |scratch, k| {
             let (a, ratio) = (&attachments[k], scratch.time_ratio[k]);
-            if scratch.own_inverse_mass[k] <= 0.0 {
-                continue;
-            }
             let gap = super::riding_gap(a, body, particles, ratio);
             riding |= gap.is_some();
-            scratch.group.push(k);
-            scratch.shares.extend(gap.unwrap_or(DVec3::ZERO).to_array());
-        }
+            gap.unwrap_or(DVec3::ZERO)
+        });
         if !riding {
             continue;
         }
@@ -168,20 +161,9 @@ pub(super) fn release(
         }
         // The impulse each lumped particle took (none measurable where it was lumped
         // immovable), times its own inverse mass: `w_k p_k + Σ_j W(r_k, r_j) p_j = w_k J_k`.
-        scratch.group.clear();
-        scratch.shares.clear();
-        for i in scratch.bucket(b) {
-            let k = scratch.order[i];
-            let a = &attachments[k];
-            if scratch.own_inverse_mass[k] <= 0.0 {
-                continue;
-            }
-            scratch.group.push(k);
-            let impulse = taken(a, k, particles, scratch);
-            scratch
-                .shares
-                .extend((impulse * scratch.own_inverse_mass[k]).to_array());
-        }
+        group_movable(b, scratch, |scratch, k| {
+            taken(&attachments[k], k, particles, scratch) * scratch.own_inverse_mass[k]
+        });
         let solved = solve_joint(attachments, body, scratch);
         for row in 0..scratch.group.len() {
             let k = scratch.group[row];
@@ -206,6 +188,26 @@ pub(super) fn release(
                 scratch.pulled[k] += impulse;
                 a.direction = impulse.normalize();
             }
+        }
+    }
+}
+
+/// Lists body `b`'s attachments taking this substep whose particle can move in
+/// `scratch.group`, and beside each, in `scratch.shares`, the right-hand side `rhs` gives it
+/// (of the joint system [`solve_joint`] solves).
+fn group_movable(
+    b: usize,
+    scratch: &mut AttachmentScratch,
+    mut rhs: impl FnMut(&AttachmentScratch, usize) -> DVec3,
+) {
+    scratch.group.clear();
+    scratch.shares.clear();
+    for i in scratch.bucket(b) {
+        let k = scratch.order[i];
+        if scratch.own_inverse_mass[k] > 0.0 {
+            let value = rhs(scratch, k);
+            scratch.group.push(k);
+            scratch.shares.extend(value.to_array());
         }
     }
 }
