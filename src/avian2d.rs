@@ -4,6 +4,7 @@
 //! about Z.
 
 use ::avian2d::math::Dir;
+use ::avian2d::parry;
 use ::avian2d::prelude::*;
 
 /// A body-local anchor (2D).
@@ -64,6 +65,26 @@ fn keep_depth(surface: DVec3, point: DVec3) -> DVec3 {
     surface.with_z(point.z)
 }
 
+/// `None`: a 2D triangle mesh's triangles are solid already, and parry reports their inside
+/// (see `avian/hollow.rs`).
+fn oriented_mesh_projection(_: &parry::shape::SharedShape, _: Vec2) -> Option<(Vec2, bool)> {
+    None
+}
+
+/// The height of `field` straight over or under `local` (its frame): the segment of the cell
+/// under it; `None` outside its footprint or over a hole (see `avian/hollow.rs`).
+fn height_under(field: &parry::shape::HeightField, local: Vec2) -> Option<f32> {
+    let segment = field.segment_at(field.cell_at_point(local)?)?;
+    let (a, b) = (segment.a, segment.b);
+    let along = if b.x != a.x {
+        (local.x - a.x) / (b.x - a.x)
+    } else {
+        0.0
+    };
+    Some(a.y + (b.y - a.y) * along.clamp(0.0, 1.0))
+}
+
+include!("avian/hollow.rs");
 include!("avian/common.rs");
 
 #[path = "avian/scene2d.rs"]

@@ -3,6 +3,7 @@
 //! This module is for `avian3d` (feature `avian3d`).
 
 use ::avian3d::math::Dir;
+use ::avian3d::parry;
 use ::avian3d::prelude::*;
 
 /// A body-local anchor (3D).
@@ -72,4 +73,39 @@ fn keep_depth(surface: DVec3, _: DVec3) -> DVec3 {
     surface
 }
 
+/// An oriented triangle mesh (built with `TrimeshFlags::ORIENTED` or `FIX_INTERNAL_EDGES`):
+/// the surface point closest to `local` and whether `local` is inside, by parry's
+/// pseudo-normals; `None` for other shapes (see `avian/hollow.rs`).
+fn oriented_mesh_projection(
+    shape: &parry::shape::SharedShape,
+    local: Vec3,
+) -> Option<(Vec3, bool)> {
+    use parry::query::PointQueryWithLocation;
+    let mesh = shape.as_trimesh()?;
+    mesh.pseudo_normals_if_oriented()?;
+    let (projection, _) = mesh.project_local_point_and_get_location(local, false);
+    Some((projection.point, projection.is_inside))
+}
+
+/// The height of `field` straight over or under `local` (its frame): the plane of the cell's
+/// triangle whose ground plan holds `local` (edges included, with a margin for rounding);
+/// `None` outside its footprint or over a hole (see `avian/hollow.rs`). (A vertical ray cast
+/// misses on the grid lines.)
+fn height_under(field: &parry::shape::HeightField, local: Vec3) -> Option<f32> {
+    let (i, j) = field.cell_at_point(local)?;
+    let (first, second) = field.triangles_at(i, j);
+    [first, second].into_iter().flatten().find_map(|triangle| {
+        let (a, b, c) = (triangle.a, triangle.b, triangle.c);
+        let cross = |u: Vec3, v: Vec3| u.x * v.z - u.z * v.x;
+        let area = cross(b - a, c - a);
+        // Barycentric weights of `local` in the ground plan (x, z).
+        let weight_a = cross(b - local, c - local) / area;
+        let weight_b = cross(c - local, a - local) / area;
+        let weight_c = 1.0 - weight_a - weight_b;
+        let inside = [weight_a, weight_b, weight_c].iter().all(|&w| w >= -1e-4);
+        (area != 0.0 && inside).then_some(weight_a * a.y + weight_b * b.y + weight_c * c.y)
+    })
+}
+
+include!("avian/hollow.rs");
 include!("avian/common.rs");

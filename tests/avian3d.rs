@@ -355,3 +355,148 @@ fn a_platform_swung_on_four_ropes_keeps_its_period_and_stays_level() {
     assert!(turn < 1e-4, "the platform turned {turn} rad");
     assert!(gap < 1e-3, "a knot {gap} m off its anchor");
 }
+
+/// Hills 8 × 8 m, ±0.5 m high: a 17 × 17 heightfield of `0.5·sin(x)·cos(z)`, static at the origin.
+fn spawn_hills(app: &mut App) -> Collider {
+    let height = |i: usize, j: usize| {
+        let (x, z) = (j as f32 * 0.5 - 4.0, i as f32 * 0.5 - 4.0);
+        0.5 * x.sin() * z.cos()
+    };
+    let heights = (0..17)
+        .map(|i| (0..17).map(|j| height(i, j)).collect())
+        .collect();
+    let hills = Collider::heightfield(heights, Vec3::new(8.0, 1.0, 8.0));
+    spawn_static(app, hills.clone(), Quat::IDENTITY);
+    hills
+}
+
+/// Height of the ground under `x` (a ray straight down) and the signed distance from `x` to it
+/// (negative below).
+fn above_ground(ground: &Collider, x: Vec3) -> (f32, f32) {
+    // (parry's ray misses on the grid lines: a second ray 0.1 mm beside it.)
+    let down = |beside: f32| {
+        let top = Vec3::new(x.x + beside, 10.0, x.z + beside);
+        ground.cast_ray(Vec3::ZERO, Quat::IDENTITY, top, Vec3::NEG_Y, 100.0, true)
+    };
+    let (depth, _) = down(0.0)
+        .or_else(|| down(1e-4))
+        .unwrap_or_else(|| panic!("{x} is not over the ground"));
+    let height = 10.0 - depth;
+    let distance = ground.distance_to_point(Vec3::ZERO, Quat::IDENTITY, x, false);
+    (height, if x.y < height { -distance } else { distance })
+}
+
+#[test]
+fn particles_under_a_heightfield_are_pushed_up_onto_it() {
+    // A heightfield is ground: a particle whose centre is under it (spawned there, or pushed
+    // through by its rope) belongs on top. parry projects onto a heightfield as a bare surface,
+    // with no inside, which pushed such particles further down, out of the ground. (Contacts
+    // start where a particle's box meets the collider's bounds: these particles, 4 mm to 10 cm
+    // under, are within them.)
+    let mut app = app(Vec3::ZERO);
+    let hills = spawn_hills(&mut app);
+    let mut buried = Vec::new();
+    for k in 0..25 {
+        let (x, z) = ((k % 5) as f32 * 1.3 - 2.6, (k / 5) as f32 * 1.3 - 2.6);
+        let (height, _) = above_ground(&hills, Vec3::new(x, 0.0, z));
+        let depth = 0.004 + 0.004 * k as f32;
+        let at = Vec3::new(x, height - depth, z);
+        buried.push(
+            app.world_mut()
+                .spawn(Particle::new(at).with_radius(0.05))
+                .id(),
+        );
+    }
+    step(&mut app, 2);
+    let lowest = buried
+        .iter()
+        .map(|&p| above_ground(&hills, position(&app, p)).1)
+        .fold(f32::INFINITY, f32::min);
+    println!("particles buried 4 mm to 10 cm under hills: lowest centre {lowest:.4} m above them");
+    assert!(
+        lowest > 0.05 - 1e-3,
+        "a particle is {lowest} m above the ground"
+    );
+}
+
+#[test]
+fn a_cloth_dropped_on_a_heightfield_drapes_over_it() {
+    let mut app = app(Vec3::new(0.0, -9.81, 0.0));
+    let hills = spawn_hills(&mut app);
+    let cloth = {
+        let world = app.world_mut();
+        let cloth = ClothBuilder::new(Vec3::new(-2.0, 1.0, -2.0), 21, 21, 0.2)
+            .axes(Vec3::X, Vec3::Z)
+            .radius(0.03)
+            .spawn(&mut world.commands());
+        world.flush();
+        cloth
+    };
+    let mut lowest = f32::INFINITY;
+    for _ in 0..128 {
+        step(&mut app, 1);
+        for &p in &cloth.particles {
+            lowest = lowest.min(above_ground(&hills, position(&app, p)).1);
+        }
+    }
+    let resting = cloth
+        .particles
+        .iter()
+        .filter(|&&p| above_ground(&hills, position(&app, p)).1 < 0.05)
+        .count();
+    println!("cloth on hills: lowest centre {lowest:.4} m above them, {resting} of 441 resting");
+    assert!(lowest > 0.03 - 1e-3, "a particle sank to {lowest} m");
+    assert!(
+        resting > 100,
+        "the cloth did not land: {resting} particles on the ground"
+    );
+}
+
+/// A closed 1 m cube as a triangle mesh, its faces wound outwards.
+fn cube_mesh(flags: TrimeshFlags) -> Collider {
+    let vertices = (0..8)
+        .map(|k| Vec3::new((k & 1) as f32, (k >> 1 & 1) as f32, (k >> 2 & 1) as f32) - 0.5)
+        .collect();
+    let indices = vec![
+        [0, 2, 3],
+        [0, 3, 1], // −z
+        [4, 5, 7],
+        [4, 7, 6], // +z
+        [0, 1, 5],
+        [0, 5, 4], // −y
+        [2, 6, 7],
+        [2, 7, 3], // +y
+        [0, 4, 6],
+        [0, 6, 2], // −x
+        [1, 3, 7],
+        [1, 7, 5], // +x
+    ];
+    Collider::trimesh_with_config(vertices, indices, flags)
+}
+
+#[test]
+fn an_oriented_triangle_mesh_has_an_inside() {
+    // A particle 3 cm inside a closed mesh's top face (radius 5 cm): an oriented mesh pushes it
+    // out through that face; a mesh without orientation is a bare surface, which pushes it to
+    // one radius under it, inside.
+    for (flags, pushed_out) in [
+        (TrimeshFlags::ORIENTED, true),
+        (TrimeshFlags::FIX_INTERNAL_EDGES, true),
+        (TrimeshFlags::empty(), false),
+    ] {
+        let mut app = app(Vec3::ZERO);
+        spawn_static(&mut app, cube_mesh(flags), Quat::IDENTITY);
+        let p = app
+            .world_mut()
+            .spawn(Particle::new(Vec3::new(0.1, 0.47, -0.2)).with_radius(0.05))
+            .id();
+        step(&mut app, 2);
+        let y = position(&app, p).y;
+        println!("{flags:?}: a particle 3 cm under the top face ends at y = {y}");
+        if pushed_out {
+            assert!((y - 0.55).abs() < 1e-4, "{flags:?}: y = {y}");
+        } else {
+            assert!((y - 0.45).abs() < 1e-4, "{flags:?}: y = {y}");
+        }
+    }
+}

@@ -121,6 +121,10 @@ struct AvianShape(Collider);
 
 impl ContactShape for AvianShape {
     fn project(&self, pose: Pose, point: DVec3) -> (DVec3, bool) {
+        // (Heightfields and oriented meshes: their inside, see `avian/hollow.rs`.)
+        if let Some((surface, inside)) = project_with_inside(&self.0, pose, point) {
+            return (keep_depth(surface, point), inside);
+        }
         let (surface, inside) = self.0.project_point(
             from_d(pose.translation),
             rotation_from_d(pose.rotation),
