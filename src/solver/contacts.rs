@@ -251,7 +251,7 @@ pub fn collide_particle_with<S: ContactShape>(
 /// particle's own motion was swept: a thin moving collider passed particles standing still, and
 /// a hollow one, such as a trimesh, left them on its far side). The body's motion over its last
 /// substep is scaled by `time_ratio` ([`ContactParticle::time_ratio`]) to the particle's. A
-/// collider that did not move leaves `previous` exactly as it is.
+/// collider whose body did not move leaves `previous` exactly as it is.
 fn carried<S>(
     previous: DVec3,
     collider: &ExternalCollider<S>,
@@ -259,12 +259,11 @@ fn carried<S>(
     bodies: &[Body],
     time_ratio: f64,
 ) -> DVec3 {
-    let before = bodies[collider.body as usize]
-        .previous_pose()
-        .then(collider.local);
-    if before == pose {
+    let body = &bodies[collider.body as usize];
+    if body.previous_pose() == body.pose() {
         return previous;
     }
+    let before = body.previous_pose().then(collider.local);
     let local = before.rotation.inverse() * (previous - before.translation);
     let moved = pose.translation + pose.rotation * local - previous;
     let carried = previous + moved / time_ratio;
