@@ -65,6 +65,12 @@ fn keep_depth(surface: DVec3, point: DVec3) -> DVec3 {
     surface.with_z(point.z)
 }
 
+/// `false`: in 2D no triangle mesh needs pseudo-normals for its inside (see
+/// `oriented_mesh_projection`).
+fn is_closed_mesh(_: &parry::shape::SharedShape) -> bool {
+    false
+}
+
 /// `None`: a 2D triangle mesh's triangles are solid already, and parry reports their inside
 /// (see `avian/hollow.rs`).
 fn oriented_mesh_projection(_: &parry::shape::SharedShape, _: Vec2) -> Option<(Vec2, bool)> {

@@ -73,9 +73,30 @@ fn keep_depth(surface: DVec3, _: DVec3) -> DVec3 {
     surface
 }
 
-/// An oriented triangle mesh (built with `TrimeshFlags::ORIENTED` or `FIX_INTERNAL_EDGES`):
-/// the surface point closest to `local` and whether `local` is inside, by parry's
-/// pseudo-normals; `None` for other shapes (see `avian/hollow.rs`).
+/// Whether `shape` is a triangle mesh with pseudo-normals (`TrimeshFlags::ORIENTED`) whose
+/// every edge is shared by exactly two triangles: closed, so that it has an inside (see
+/// `avian/hollow.rs`). Allocates: run once per collider.
+fn is_closed_mesh(shape: &parry::shape::SharedShape) -> bool {
+    let Some(mesh) = shape.as_trimesh() else {
+        return false;
+    };
+    if mesh.pseudo_normals_if_oriented().is_none() {
+        return false;
+    }
+    let mut edges: Vec<(u32, u32)> = mesh
+        .indices()
+        .iter()
+        .flat_map(|&[a, b, c]| [(a, b), (b, c), (c, a)])
+        .map(|(a, b)| (a.min(b), a.max(b)))
+        .collect();
+    edges.sort_unstable();
+    let shared_by_two = |run: &[(u32, u32)]| run.len() == 2;
+    !edges.is_empty() && edges.chunk_by(|a, b| a == b).all(shared_by_two)
+}
+
+/// A closed triangle mesh with pseudo-normals ([`is_closed_mesh`]): the surface point closest
+/// to `local` and whether `local` is inside, by parry's pseudo-normals; `None` for other shapes
+/// (see `avian/hollow.rs`).
 fn oriented_mesh_projection(
     shape: &parry::shape::SharedShape,
     local: Vec3,

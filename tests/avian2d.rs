@@ -1523,9 +1523,12 @@ fn kicked_bodies_on_several_ropes_hold_their_length_and_energy() {
 #[test]
 fn a_fast_thin_bar_sweeps_a_resting_particle_along() {
     // A kinematic bar 1 cm thick at 100 m/s (0.2 m per substep at 8 × 64 Hz) through a particle
-    // at rest, as a solid box and as a bare segment (a polyline, no inside): the particle is swept
-    // relative to the bar and rides in front of it. Before, only the particle's own motion was
-    // swept: the bar passed it.
+    // at rest, as a solid box and as a bare segment (a polyline, no inside), from four starting
+    // points (the bar's last substep before the particle ends 3 mm to 18 cm short of it), alone
+    // and among eight far pebbles (the colliders' grid): the particle is swept relative to the
+    // bar and rides in front of it. Before, only the particle's own motion was swept and the bar
+    // passed it; and a collider was offered to a particle only where its bounds at the end of
+    // the substep were near it.
     for (name, bar) in [
         ("box", Collider::rectangle(0.01, 1.0)),
         (
@@ -1533,27 +1536,81 @@ fn a_fast_thin_bar_sweeps_a_resting_particle_along() {
             Collider::polyline(vec![Vec2::new(0.0, -0.5), Vec2::new(0.0, 0.5)], None),
         ),
     ] {
-        let mut app = app(Vec2::ZERO);
-        let bar = spawn(
-            &mut app,
-            (
-                RigidBody::Kinematic,
-                bar,
-                LinearVelocity(Vec2::new(100.0, 0.0)),
-                Transform::from_xyz(-1.0, 0.0, 0.0),
-            ),
-        );
-        let p = spawn(&mut app, Particle::new(Vec3::ZERO).with_radius(0.05));
-        step(&mut app, 4);
-        let bar_x = app.world().get::<Position>(bar).unwrap().0.x;
-        let x = particle(&app, p).position.x;
-        println!("{name} at 100 m/s: bar at x = {bar_x}, particle at {x}");
-        assert!(bar_x > 4.0, "{name}: the bar is at {bar_x}");
-        assert!(
-            x - bar_x > 0.05 - 1e-3,
-            "{name}: the particle is at {x}, the bar at {bar_x}"
-        );
+        for start in [-1.0, -1.05, -1.1, -1.15] {
+            for pebbles in [0, 8] {
+                let mut app = app(Vec2::ZERO);
+                for k in 0..pebbles {
+                    let at = Transform::from_xyz(20.0 + k as f32, 20.0, 0.0);
+                    spawn(&mut app, (RigidBody::Static, Collider::circle(0.1), at));
+                }
+                let bar = spawn(
+                    &mut app,
+                    (
+                        RigidBody::Kinematic,
+                        bar.clone(),
+                        LinearVelocity(Vec2::new(100.0, 0.0)),
+                        Transform::from_xyz(start, 0.0, 0.0),
+                    ),
+                );
+                let p = spawn(&mut app, Particle::new(Vec3::ZERO).with_radius(0.05));
+                step(&mut app, 4);
+                let bar_x = app.world().get::<Position>(bar).unwrap().0.x;
+                let x = particle(&app, p).position.x;
+                let case = format!("{name} from x = {start}, {pebbles} pebbles");
+                println!("{case}: bar at x = {bar_x}, particle at {x}");
+                assert!(bar_x > 4.0, "{case}: the bar is at {bar_x}");
+                assert!(
+                    x - bar_x > 0.05 - 1e-3,
+                    "{case}: the particle is at {x}, the bar at {bar_x}"
+                );
+            }
+        }
     }
+}
+
+#[test]
+fn a_fast_bar_wakes_and_sweeps_a_sleeping_rope() {
+    // A rope hangs asleep; a kinematic bar at 100 m/s crosses it within one step (it starts
+    // 0.5 m short of it and ends 1.06 m past it): the bar's bounds swept over the step wake the
+    // rope, and the rope's end is swept along. Before, only bounds at the start of the step
+    // woke a sleeping island.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    app.insert_resource(VerletConfig {
+        damping: 2.0,
+        ..default()
+    });
+    let rope = {
+        let world = app.world_mut();
+        let rope = RopeBuilder::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0), 5)
+            .radius(0.02)
+            .pin_start()
+            .spawn(&mut world.commands());
+        world.flush();
+        rope
+    };
+    step(&mut app, 192);
+    let bottom = rope.particles[5];
+    assert!(
+        app.world().resource::<VerletState>().is_sleeping(bottom),
+        "the rope fell asleep"
+    );
+    let before = particle(&app, bottom).position;
+    spawn(
+        &mut app,
+        (
+            RigidBody::Kinematic,
+            Collider::rectangle(0.01, 0.2),
+            LinearVelocity(Vec2::new(100.0, 0.0)),
+            Transform::from_xyz(-0.5, 0.5, 0.0),
+        ),
+    );
+    step(&mut app, 2);
+    let moved = particle(&app, bottom).position.x - before.x;
+    println!("a sleeping rope's end crossed by a bar at 100 m/s moved {moved} m");
+    assert!(
+        moved > 0.2,
+        "the bar passed the rope: its end moved {moved} m"
+    );
 }
 
 #[test]

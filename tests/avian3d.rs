@@ -452,51 +452,62 @@ fn a_cloth_dropped_on_a_heightfield_drapes_over_it() {
     );
 }
 
-/// A closed 1 m cube as a triangle mesh, its faces wound outwards.
-fn cube_mesh(flags: TrimeshFlags) -> Collider {
+/// A closed 1 m cube as a triangle mesh, its faces wound outwards — or, `open`, its top face
+/// alone (a one-sided lid at y = 0.5).
+fn cube_mesh(flags: TrimeshFlags, open: bool) -> Collider {
     let vertices = (0..8)
         .map(|k| Vec3::new((k & 1) as f32, (k >> 1 & 1) as f32, (k >> 2 & 1) as f32) - 0.5)
         .collect();
-    let indices = vec![
+    let top = [[2, 6, 7], [2, 7, 3]];
+    let sides = [
         [0, 2, 3],
         [0, 3, 1], // −z
         [4, 5, 7],
         [4, 7, 6], // +z
         [0, 1, 5],
         [0, 5, 4], // −y
-        [2, 6, 7],
-        [2, 7, 3], // +y
         [0, 4, 6],
         [0, 6, 2], // −x
         [1, 3, 7],
         [1, 7, 5], // +x
     ];
+    let indices = if open {
+        top.to_vec()
+    } else {
+        [&top[..], &sides[..]].concat()
+    };
     Collider::trimesh_with_config(vertices, indices, flags)
 }
 
 #[test]
-fn an_oriented_triangle_mesh_has_an_inside() {
-    // A particle 3 cm inside a closed mesh's top face (radius 5 cm): an oriented mesh pushes it
-    // out through that face; a mesh without orientation is a bare surface, which pushes it to
-    // one radius under it, inside.
-    for (flags, pushed_out) in [
-        (TrimeshFlags::ORIENTED, true),
-        (TrimeshFlags::FIX_INTERNAL_EDGES, true),
-        (TrimeshFlags::empty(), false),
+fn a_closed_oriented_triangle_mesh_has_an_inside() {
+    // A particle 3 cm under a cube's top face (radius 5 cm). A closed mesh with pseudo-normals
+    // (`ORIENTED`, or `FIX_INTERNAL_EDGES`, which implies it) has an inside: the particle is
+    // pushed out through that face. Without orientation the mesh is a bare surface, which pushes
+    // it to one radius under the face, inside. The top face alone, oriented, is open: a particle
+    // under a one-sided lid, ground or wall stays on its side (parry's pseudo-normals alone would
+    // call it inside and pull it through).
+    for (flags, open, pushed_out) in [
+        (TrimeshFlags::ORIENTED, false, true),
+        (TrimeshFlags::FIX_INTERNAL_EDGES, false, true),
+        (TrimeshFlags::empty(), false, false),
+        (TrimeshFlags::ORIENTED, true, false),
+        (TrimeshFlags::FIX_INTERNAL_EDGES, true, false),
     ] {
         let mut app = app(Vec3::ZERO);
-        spawn_static(&mut app, cube_mesh(flags), Quat::IDENTITY);
+        spawn_static(&mut app, cube_mesh(flags, open), Quat::IDENTITY);
         let p = app
             .world_mut()
             .spawn(Particle::new(Vec3::new(0.1, 0.47, -0.2)).with_radius(0.05))
             .id();
         step(&mut app, 2);
         let y = position(&app, p).y;
-        println!("{flags:?}: a particle 3 cm under the top face ends at y = {y}");
-        if pushed_out {
-            assert!((y - 0.55).abs() < 1e-4, "{flags:?}: y = {y}");
-        } else {
-            assert!((y - 0.45).abs() < 1e-4, "{flags:?}: y = {y}");
-        }
+        let case = format!(
+            "{flags:?}, {}",
+            if open { "top face alone" } else { "closed" }
+        );
+        println!("{case}: a particle 3 cm under the top face ends at y = {y}");
+        let expected = if pushed_out { 0.55 } else { 0.45 };
+        assert!((y - expected).abs() < 1e-4, "{case}: y = {y}");
     }
 }

@@ -115,17 +115,21 @@ pub struct AvianCouplingStats {
     pub later_exchanges: usize,
 }
 
-/// avian's `Collider`, as the core's [`ContactShape`].
+/// avian's `Collider`, as the core's [`ContactShape`]; `closed`: a closed triangle mesh with
+/// pseudo-normals, which has an inside (see `avian/hollow.rs`).
 #[derive(Clone)]
-struct AvianShape(Collider);
+struct AvianShape {
+    collider: Collider,
+    closed: bool,
+}
 
 impl ContactShape for AvianShape {
     fn project(&self, pose: Pose, point: DVec3) -> (DVec3, bool) {
         // (Heightfields and oriented meshes: their inside, see `avian/hollow.rs`.)
-        if let Some((surface, inside)) = project_with_inside(&self.0, pose, point) {
+        if let Some((surface, inside)) = project_with_inside(self, pose, point) {
             return (keep_depth(surface, point), inside);
         }
-        let (surface, inside) = self.0.project_point(
+        let (surface, inside) = self.collider.project_point(
             from_d(pose.translation),
             rotation_from_d(pose.rotation),
             from_d(point),
@@ -142,7 +146,7 @@ impl ContactShape for AvianShape {
         max: f64,
     ) -> Option<(f64, DVec3)> {
         let direction = Dir::new(from_d(direction)).ok()?;
-        let hit = self.0.cast_ray(
+        let hit = self.collider.cast_ray(
             from_d(pose.translation),
             rotation_from_d(pose.rotation),
             from_d(origin),
@@ -155,7 +159,7 @@ impl ContactShape for AvianShape {
 
     fn bounds(&self, pose: Pose) -> (DVec3, DVec3) {
         let aabb = self
-            .0
+            .collider
             .aabb(from_d(pose.translation), rotation_from_d(pose.rotation));
         full_depth(to_d(aabb.min), to_d(aabb.max))
     }
@@ -177,6 +181,11 @@ struct Coupled {
     /// Per gathered collider: spawned, moved or reshaped since the last step (it wakes the
     /// sleeping islands it touches, as a moving body's colliders do).
     placed_anew: Vec<bool>,
+    /// Whether each collider gathered in the last step, and in this one, is a closed triangle
+    /// mesh with pseudo-normals (see `avian/hollow.rs`).
+    closed_meshes: [EntityHashMap<bool>; 2],
+    /// Per gathered collider: its bounds grown by its body's motion over the step and its margin.
+    swept: Vec<(DVec3, DVec3)>,
     /// The pose and bounds of each collider gathered in the last step, and in this one.
     /// (Compared, not change ticks: avian rewrites a child collider's `Position` every step.)
     collider_poses: [EntityHashMap<(Pose, ColliderAabb)>; 2],
@@ -325,8 +334,11 @@ impl Coupled {
         self.body_index.clear();
         self.attached.clear();
         self.placed_anew.clear();
+        self.swept.clear();
         self.collider_poses.swap(0, 1);
         self.collider_poses[1].clear();
+        self.closed_meshes.swap(0, 1);
+        self.closed_meshes[1].clear();
     }
 
     /// The index of `entity`'s proxy, adding it if it is an avian rigid body.
@@ -433,15 +445,26 @@ fn gather_colliders(
             .and_then(|of| coupled.add_body(world, of.body))
             .unwrap_or_else(|| coupled.add_static(pose));
         let body_pose = coupled.external.bodies[index as usize].pose();
+        // (Checked once per collider, and again when it changes.)
+        let [last, now] = &mut coupled.closed_meshes;
+        let closed = match last.get(&entity) {
+            Some(&closed) if !collider.is_changed() => closed,
+            _ => is_closed_mesh(collider.shape_scaled()),
+        };
+        now.insert(entity, closed);
         let [last, now] = &mut coupled.collider_poses;
         let placed = (pose, *aabb);
         let same = last.get(&entity).is_some_and(|(p, b)| {
             *p == pose && b.min == aabb.min && b.max == aabb.max
         });
         coupled.placed_anew.push(collider.is_added() || !same);
+        coupled.swept.push((lo, hi));
         now.insert(entity, placed);
         coupled.external.colliders.push(ExternalCollider {
-            shape: AvianShape(Collider::clone(&collider)),
+            shape: AvianShape {
+                collider: Collider::clone(&collider),
+                closed,
+            },
             body: index,
             local: body_pose.relative(pose),
             restitution: f64::from(restitution.map_or(coupling.restitution, |r| r.coefficient)),
@@ -609,8 +632,8 @@ type OwnMaterial = (
     Or<(With<Friction>, With<Restitution>)>,
 );
 
-/// Wakes sleeping islands that a moving body's collider reaches, and islands with a particle
-/// attached to a moving body.
+/// Wakes sleeping islands that a moving body's collider reaches within the step, and islands
+/// with a particle attached to a moving body.
 fn wake_touched(state: &mut VerletState, coupled: &Coupled) {
     let external = &coupled.external;
     let moving = |body: &Body| body.velocity != DVec3::ZERO || body.angular_velocity != DVec3::ZERO;
@@ -621,11 +644,11 @@ fn wake_touched(state: &mut VerletState, coupled: &Coupled) {
         }
         let (lo, hi) = coupled.island_bounds[index];
         let range = state.solver.islands.list[index].particles.clone();
-        // The cheap test first: only a moving or newly placed collider needs its bounds.
+        // The cheap test first: only a moving or newly placed collider needs its bounds —
+        // swept over the step: one that passes the island within it wakes it.
         let colliders = external.colliders.iter().zip(&coupled.placed_anew);
-        let touched = colliders.into_iter().any(|(c, &anew)| {
-            (anew || moving(&external.bodies[c.body as usize]))
-                && overlaps(c.shape.bounds(c.pose(&external.bodies)), (lo, hi))
+        let touched = colliders.zip(&coupled.swept).any(|((c, &anew), &swept)| {
+            (anew || moving(&external.bodies[c.body as usize])) && overlaps(swept, (lo, hi))
         }) || external.attachments.iter().any(|a| {
             range.contains(&a.particle) && moving(&external.bodies[a.body as usize])
         });

@@ -22,7 +22,7 @@
 //! turns fast is swept along the chord of the particle's relative path, not the arc.
 
 use super::bodies::{Body, Pose};
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 
 /// What the core needs from a shape it does not own. Implemented by the Bevy layer (e.g. for
 /// avian's `Collider`); poses are world placements of the shape.
@@ -118,6 +118,41 @@ impl<S> ExternalCollider<S> {
     /// The collider's world placement for its body's current pose.
     pub fn pose(&self, bodies: &[Body]) -> Pose {
         bodies[self.body as usize].pose().then(self.local)
+    }
+
+    /// The collider's world placement `substeps` of its body's substeps ago — its body's last
+    /// substep's motion taken back that many times, turning included (a particle whose island
+    /// takes fewer substeps than the bodies spans several of theirs) — or `None` where its body
+    /// did not move in its last substep.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::{Body, ExternalCollider, Layers, Pose};
+    /// use glam::{DQuat, DVec3};
+    /// let mut bodies = [Body::kinematic(DVec3::ZERO, DQuat::IDENTITY, DVec3::X, DVec3::ZERO)];
+    /// let collider = ExternalCollider {
+    ///     shape: (), body: 0, local: Pose::IDENTITY, restitution: 0.0, friction: 0.0,
+    ///     layers: Layers::default(), margin: 0.0,
+    /// };
+    /// bodies[0].begin_substep(0.5); // moves 0.5 m along x
+    /// let start = collider.start_pose(&bodies, 2.0).unwrap();
+    /// assert!((start.translation - DVec3::new(-0.5, 0.0, 0.0)).length() < 1e-12);
+    /// ```
+    pub fn start_pose(&self, bodies: &[Body], substeps: f64) -> Option<Pose> {
+        let body = &bodies[self.body as usize];
+        let (before, now) = (body.previous_pose(), body.pose());
+        if before == now {
+            return None;
+        }
+        if substeps == 1.0 {
+            return Some(before.then(self.local));
+        }
+        let turn = now.rotation * before.rotation.inverse();
+        let turn = if turn.w < 0.0 { -turn } else { turn }.to_scaled_axis();
+        let start = Pose {
+            translation: now.translation - (now.translation - before.translation) * substeps,
+            rotation: (DQuat::from_scaled_axis(-turn * substeps) * now.rotation).normalize(),
+        };
+        Some(start.then(self.local))
     }
 }
 
@@ -249,9 +284,9 @@ pub fn collide_particle_with<S: ContactShape>(
 /// from which a fast one is swept ([`penetration`]). A collider moving fast — a swung bat, a
 /// rising platform — thus sweeps a slow particle along instead of passing it (before, only the
 /// particle's own motion was swept: a thin moving collider passed particles standing still, and
-/// a hollow one, such as a trimesh, left them on its far side). The body's motion over its last
-/// substep is scaled by `time_ratio` ([`ContactParticle::time_ratio`]) to the particle's. A
-/// collider whose body did not move leaves `previous` exactly as it is.
+/// a hollow one, such as a trimesh, left them on its far side). The collider's pose at the start
+/// of the particle's substep is [`ExternalCollider::start_pose`]. A collider whose body did not
+/// move leaves `previous` exactly as it is.
 fn carried<S>(
     previous: DVec3,
     collider: &ExternalCollider<S>,
@@ -259,14 +294,11 @@ fn carried<S>(
     bodies: &[Body],
     time_ratio: f64,
 ) -> DVec3 {
-    let body = &bodies[collider.body as usize];
-    if body.previous_pose() == body.pose() {
+    let Some(start) = collider.start_pose(bodies, 1.0 / time_ratio) else {
         return previous;
-    }
-    let before = body.previous_pose().then(collider.local);
-    let local = before.rotation.inverse() * (previous - before.translation);
-    let moved = pose.translation + pose.rotation * local - previous;
-    let carried = previous + moved / time_ratio;
+    };
+    let local = start.rotation.inverse() * (previous - start.translation);
+    let carried = pose.translation + pose.rotation * local;
     if carried.is_finite() {
         carried
     } else {
@@ -487,6 +519,31 @@ mod tests {
         assert!((x.x - 3.1).abs() < 1e-9, "the particle ended at {x}");
         // A wall moving at V bounces a particle at rest to V·(1 + e), e = 0.5.
         assert!((velocity.x - 600.0).abs() < 1e-6, "{velocity}");
+    }
+
+    #[test]
+    fn a_turning_colliders_start_is_taken_back_over_several_substeps() {
+        // A collider 1 m off the axis of a body spinning at 2 rad/s: over a particle substep
+        // three of the body's long, its start is the body turned back by three of its turns.
+        let mut bodies = [Body::kinematic(
+            DVec3::ZERO,
+            DQuat::IDENTITY,
+            DVec3::ZERO,
+            DVec3::new(0.0, 0.0, 2.0),
+        )];
+        let collider = ExternalCollider {
+            local: Pose {
+                translation: DVec3::X,
+                rotation: DQuat::IDENTITY,
+            },
+            ..ball_on(0)
+        };
+        assert_eq!(collider.start_pose(&bodies, 3.0), None);
+        bodies[0].begin_substep(0.01);
+        let start = collider.start_pose(&bodies, 3.0).unwrap();
+        let expected = DQuat::from_rotation_z(-0.04);
+        assert!(start.rotation.angle_between(expected) < 1e-12);
+        assert!((start.translation - expected * DVec3::X).length() < 1e-12);
     }
 
     #[test]
