@@ -67,7 +67,7 @@ fn keep_depth(surface: DVec3, point: DVec3) -> DVec3 {
 
 /// `false`: in 2D no triangle mesh needs pseudo-normals for its inside (see
 /// `oriented_mesh_projection`).
-fn is_closed_mesh(_: &parry::shape::SharedShape) -> bool {
+fn is_closed_mesh(_: &Collider) -> bool {
     false
 }
 
@@ -75,6 +75,23 @@ fn is_closed_mesh(_: &parry::shape::SharedShape) -> bool {
 /// (see `avian/hollow.rs`).
 fn oriented_mesh_projection(_: &parry::shape::SharedShape, _: Vec2) -> Option<(Vec2, bool)> {
     None
+}
+
+/// The point of `field`'s footprint (its span along x, centred on its origin) nearest
+/// `local`, at `local`'s height: `local` itself over the footprint (see `avian/hollow.rs`).
+fn into_footprint(field: &parry::shape::HeightField, local: Vec2) -> Vec2 {
+    let half = field.scale().x.abs() / 2.0;
+    Vec2::new(local.x.max(-half).min(half), local.y)
+}
+
+/// For `local` over `field`'s footprint: the nearest point of its two sides (walls straight
+/// down from the ground's ends) at `local`'s height, and how far it is.
+fn side_exit(field: &parry::shape::HeightField, local: Vec2) -> (Vec2, f32) {
+    let half = field.scale().x.abs() / 2.0;
+    (
+        Vec2::new(half.copysign(local.x), local.y),
+        half - local.x.abs(),
+    )
 }
 
 /// The height of `field` straight over or under `local` (its frame): the segment of the cell

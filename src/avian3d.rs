@@ -73,11 +73,12 @@ fn keep_depth(surface: DVec3, _: DVec3) -> DVec3 {
     surface
 }
 
-/// Whether `shape` is a triangle mesh with pseudo-normals (`TrimeshFlags::ORIENTED`) whose
-/// every edge is shared by exactly two triangles: closed, so that it has an inside (see
-/// `avian/hollow.rs`). Allocates: run once per collider.
-fn is_closed_mesh(shape: &parry::shape::SharedShape) -> bool {
-    let Some(mesh) = shape.as_trimesh() else {
+/// Whether `collider` is a triangle mesh with pseudo-normals (`TrimeshFlags::ORIENTED`) whose
+/// every edge is shared by exactly two triangles (by vertex index: merge duplicate vertices):
+/// closed, so that it has an inside (see `avian/hollow.rs`). Allocates: run once per shape
+/// (`closed_mesh`).
+fn is_closed_mesh(collider: &Collider) -> bool {
+    let Some(mesh) = collider.shape_scaled().as_trimesh() else {
         return false;
     };
     if mesh.pseudo_normals_if_oriented().is_none() {
@@ -106,6 +107,27 @@ fn oriented_mesh_projection(
     mesh.pseudo_normals_if_oriented()?;
     let (projection, _) = mesh.project_local_point_and_get_location(local, false);
     Some((projection.point, projection.is_inside))
+}
+
+/// The point of `field`'s footprint (its ground plan, centred on its origin) nearest `local`,
+/// at `local`'s height: `local` itself over the footprint (see `avian/hollow.rs`).
+fn into_footprint(field: &parry::shape::HeightField, local: Vec3) -> Vec3 {
+    let half = field.scale().abs() / 2.0;
+    let x = local.x.max(-half.x).min(half.x);
+    let z = local.z.max(-half.z).min(half.z);
+    Vec3::new(x, local.y, z)
+}
+
+/// For `local` over `field`'s footprint: the nearest point of the footprint's sides (walls
+/// straight down from the ground's edges) at `local`'s height, and how far it is.
+fn side_exit(field: &parry::shape::HeightField, local: Vec3) -> (Vec3, f32) {
+    let half = field.scale().abs() / 2.0;
+    let (to_x, to_z) = (half.x - local.x.abs(), half.z - local.z.abs());
+    if to_x <= to_z {
+        (Vec3::new(half.x.copysign(local.x), local.y, local.z), to_x)
+    } else {
+        (Vec3::new(local.x, local.y, half.z.copysign(local.z)), to_z)
+    }
 }
 
 /// The height of `field` straight over or under `local` (its frame): the plane of the cell's

@@ -8,6 +8,7 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_verlet_physics::avian2d::{AvianCouplingStats, BodyAttachment, VerletAvianPlugin};
 use bevy_verlet_physics::prelude::*;
+use bevy_verlet_physics::solver::collider_grid::MIN_COLLIDERS;
 
 /// Bevy's default fixed timestep (64 Hz).
 const DT: f32 = 1.0 / 64.0;
@@ -1520,15 +1521,28 @@ fn kicked_bodies_on_several_ropes_hold_their_length_and_energy() {
     assert!(highest_strain < 5e-3, "strain {highest_strain}");
 }
 
+/// Where the particle the bar meets is: alone, among eight gathered pebbles (the colliders'
+/// grid on), or taking 3 substeps of the bodies' 8 (a particle beside it takes 8; due after 3,
+/// 3 and 2 of theirs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BarSetting {
+    Alone,
+    AmongPebbles,
+    FewerSubsteps,
+}
+
 #[test]
 fn a_fast_thin_bar_sweeps_a_resting_particle_along() {
     // A kinematic bar 1 cm thick at 100 m/s (0.2 m per substep at 8 × 64 Hz) through a particle
-    // at rest, as a solid box and as a bare segment (a polyline, no inside), from four starting
-    // points (the bar's last substep before the particle ends 3 mm to 18 cm short of it), alone
-    // and among eight far pebbles (the colliders' grid): the particle is swept relative to the
-    // bar and rides in front of it. Before, only the particle's own motion was swept and the bar
-    // passed it; and a collider was offered to a particle only where its bounds at the end of
-    // the substep were near it.
+    // at rest, as a solid box and as a bare segment (a polyline, no inside), from nine starting
+    // points (it crosses the particle in the step's substeps 3 to 6, its last substep before
+    // ending 1 to 12.5 cm short of it): the particle is swept relative to the bar and rides in
+    // front of it. Before, only the particle's own motion was swept and the bar passed it; a
+    // collider was offered to a particle (by the cheap test, or by the grid among eight or more
+    // colliders) only where its bounds at the end of the substep were near it; and a particle
+    // taking fewer substeps than the bodies saw only the bar's last substep of motion (every
+    // start missed), then that scaled by the substeps' ratio, 8/3 (from x = −0.65 the bar passed
+    // in a span of 3).
     for (name, bar) in [
         ("box", Collider::rectangle(0.01, 1.0)),
         (
@@ -1536,27 +1550,14 @@ fn a_fast_thin_bar_sweeps_a_resting_particle_along() {
             Collider::polyline(vec![Vec2::new(0.0, -0.5), Vec2::new(0.0, 0.5)], None),
         ),
     ] {
-        for start in [-1.0, -1.05, -1.1, -1.15] {
-            for pebbles in [0, 8] {
-                let mut app = app(Vec2::ZERO);
-                for k in 0..pebbles {
-                    let at = Transform::from_xyz(20.0 + k as f32, 20.0, 0.0);
-                    spawn(&mut app, (RigidBody::Static, Collider::circle(0.1), at));
-                }
-                let bar = spawn(
-                    &mut app,
-                    (
-                        RigidBody::Kinematic,
-                        bar.clone(),
-                        LinearVelocity(Vec2::new(100.0, 0.0)),
-                        Transform::from_xyz(start, 0.0, 0.0),
-                    ),
-                );
-                let p = spawn(&mut app, Particle::new(Vec3::ZERO).with_radius(0.05));
-                step(&mut app, 4);
-                let bar_x = app.world().get::<Position>(bar).unwrap().0.x;
-                let x = particle(&app, p).position.x;
-                let case = format!("{name} from x = {start}, {pebbles} pebbles");
+        for start in [-1.1, -1.0, -0.9, -0.8, -0.7, -0.65, -0.6, -0.5, -0.4] {
+            for setting in [
+                BarSetting::Alone,
+                BarSetting::AmongPebbles,
+                BarSetting::FewerSubsteps,
+            ] {
+                let case = format!("{name} from x = {start}, {setting:?}");
+                let (x, bar_x) = bar_through_particle(bar.clone(), start, setting);
                 println!("{case}: bar at x = {bar_x}, particle at {x}");
                 assert!(bar_x > 4.0, "{case}: the bar is at {bar_x}");
                 assert!(
@@ -1566,6 +1567,52 @@ fn a_fast_thin_bar_sweeps_a_resting_particle_along() {
             }
         }
     }
+}
+
+/// A particle of radius 5 cm at rest at the origin, stepped 4 times as `setting` says, then a
+/// kinematic `bar` from x = `start` at 100 m/s for 4 steps: the particle's and the bar's x.
+fn bar_through_particle(bar: Collider, start: f32, setting: BarSetting) -> (f32, f32) {
+    let mut app = app(Vec2::ZERO);
+    let p = spawn(&mut app, Particle::new(Vec3::ZERO).with_radius(0.05));
+    match setting {
+        BarSetting::Alone => {}
+        BarSetting::AmongPebbles => {
+            // Pebbles about the bar's size, with a rope lying on them so that they are gathered.
+            for k in 0..8 {
+                let at = Transform::from_xyz(20.0 + k as f32, 20.0, 0.0);
+                spawn(&mut app, (RigidBody::Static, Collider::circle(0.45), at));
+            }
+            let world = app.world_mut();
+            let (from, to) = (Vec3::new(19.5, 20.46, 0.0), Vec3::new(27.5, 20.46, 0.0));
+            RopeBuilder::new(from, to, 16)
+                .radius(0.01)
+                .spawn(&mut world.commands());
+            world.flush();
+        }
+        BarSetting::FewerSubsteps => {
+            app.world_mut()
+                .entity_mut(p)
+                .insert(IslandOverride::new(3, 1));
+            spawn(&mut app, Particle::new(Vec3::new(50.0, 50.0, 0.0)));
+        }
+    }
+    step(&mut app, 4);
+    let bar = spawn(
+        &mut app,
+        (
+            RigidBody::Kinematic,
+            bar,
+            LinearVelocity(Vec2::new(100.0, 0.0)),
+            Transform::from_xyz(start, 0.0, 0.0),
+        ),
+    );
+    step(&mut app, 4);
+    if setting == BarSetting::AmongPebbles {
+        let gathered = app.world().resource::<AvianCouplingStats>().colliders;
+        assert!(gathered >= MIN_COLLIDERS, "{gathered} colliders: no grid");
+    }
+    let bar_x = app.world().get::<Position>(bar).unwrap().0.x;
+    (particle(&app, p).position.x, bar_x)
 }
 
 #[test]
@@ -1642,7 +1689,8 @@ fn particles_under_a_heightfield_are_pushed_up_onto_it() {
     };
     let buried: Vec<_> = (0..13)
         .map(|k| {
-            let x = k as f32 * 0.5 - 3.0;
+            // (Between the samples, 0.5 m apart: the height is interpolated.)
+            let x = k as f32 * 0.5 - 2.77;
             let depth = 0.004 + 0.007 * k as f32;
             spawn(
                 &mut app,

@@ -510,6 +510,24 @@ fn a_closed_oriented_triangle_mesh_has_an_inside() {
         let expected = if pushed_out { 0.55 } else { 0.45 };
         assert!((y - expected).abs() < 1e-4, "{case}: y = {y}");
     }
+    // Mirrored by its scale (its triangles wound the other way) the closed mesh keeps its
+    // inside: a particle 3 cm under its top face and one 3 cm above it are both pushed out.
+    for start in [0.47, 0.53] {
+        let mut app = app(Vec3::ZERO);
+        app.world_mut().spawn((
+            RigidBody::Static,
+            cube_mesh(TrimeshFlags::ORIENTED, false),
+            Transform::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
+        ));
+        let p = app
+            .world_mut()
+            .spawn(Particle::new(Vec3::new(0.1, start, -0.2)).with_radius(0.05))
+            .id();
+        step(&mut app, 2);
+        let y = position(&app, p).y;
+        println!("mirrored: a particle at y = {start} ends at y = {y}");
+        assert!((y - 0.55).abs() < 1e-4, "mirrored, from {start}: y = {y}");
+    }
 }
 
 #[test]
@@ -555,4 +573,22 @@ fn a_fast_thin_plate_sweeps_a_resting_particle_along() {
             );
         }
     }
+}
+
+#[test]
+fn a_particle_under_a_heightfields_edge_leaves_it_sideways() {
+    // Ground is solid down its sides: a particle 3 cm inside the hills' edge (x = 4 m) and 10 cm
+    // under their surface leaves through the side, 3 cm away, not through the surface above.
+    let mut app = app(Vec3::ZERO);
+    let hills = spawn_hills(&mut app);
+    let (height, _) = above_ground(&hills, Vec3::new(3.97, 0.0, 0.3));
+    let p = app
+        .world_mut()
+        .spawn(Particle::new(Vec3::new(3.97, height - 0.1, 0.3)).with_radius(0.05))
+        .id();
+    step(&mut app, 2);
+    let x = position(&app, p);
+    println!("under the edge at y = {}: ends at {x}", height - 0.1);
+    assert!((x.x - 4.05).abs() < 1e-4, "ended at {x}");
+    assert!((x.y - (height - 0.1)).abs() < 1e-4, "ended at {x}");
 }

@@ -181,9 +181,9 @@ struct Coupled {
     /// Per gathered collider: spawned, moved or reshaped since the last step (it wakes the
     /// sleeping islands it touches, as a moving body's colliders do).
     placed_anew: Vec<bool>,
-    /// Whether each collider gathered in the last step, and in this one, is a closed triangle
-    /// mesh with pseudo-normals (see `avian/hollow.rs`).
-    closed_meshes: [EntityHashMap<bool>; 2],
+    /// Whether each triangle mesh shape (by its `Arc`, a clone kept while anything else holds
+    /// it) is closed, with pseudo-normals (see `avian/hollow.rs`).
+    closed_meshes: ClosedMeshes,
     /// Per gathered collider: its bounds grown by its body's motion over the step and its margin.
     swept: Vec<(DVec3, DVec3)>,
     /// The pose and bounds of each collider gathered in the last step, and in this one.
@@ -337,8 +337,11 @@ impl Coupled {
         self.swept.clear();
         self.collider_poses.swap(0, 1);
         self.collider_poses[1].clear();
-        self.closed_meshes.swap(0, 1);
-        self.closed_meshes[1].clear();
+        // (Shapes nothing else holds any more.)
+        let alive = |_: &usize, (shape, _): &mut (SharedShape, bool)| {
+            std::sync::Arc::strong_count(&shape.0) > 1
+        };
+        self.closed_meshes.retain(alive);
     }
 
     /// The index of `entity`'s proxy, adding it if it is an avian rigid body.
@@ -446,12 +449,7 @@ fn gather_colliders(
             .unwrap_or_else(|| coupled.add_static(pose));
         let body_pose = coupled.external.bodies[index as usize].pose();
         // (Checked once per collider, and again when it changes.)
-        let [last, now] = &mut coupled.closed_meshes;
-        let closed = match last.get(&entity) {
-            Some(&closed) if !collider.is_changed() => closed,
-            _ => is_closed_mesh(collider.shape_scaled()),
-        };
-        now.insert(entity, closed);
+        let closed = closed_mesh(&mut coupled.closed_meshes, &collider);
         let [last, now] = &mut coupled.collider_poses;
         let placed = (pose, *aabb);
         let same = last.get(&entity).is_some_and(|(p, b)| {

@@ -285,7 +285,8 @@ pub fn collide_particle_with<S: ContactShape>(
 /// rising platform — thus sweeps a slow particle along instead of passing it (before, only the
 /// particle's own motion was swept: a thin moving collider passed particles standing still, and
 /// a hollow one, such as a trimesh, left them on its far side). The collider's pose at the start
-/// of the particle's substep is [`ExternalCollider::start_pose`]. A collider whose body did not
+/// of the particle's substep is [`ExternalCollider::start_pose`], over the bodies' substeps the
+/// particle's spans ([`substeps_spanned`]). A collider whose body did not
 /// move leaves `previous` exactly as it is.
 fn carried<S>(
     previous: DVec3,
@@ -294,7 +295,7 @@ fn carried<S>(
     bodies: &[Body],
     time_ratio: f64,
 ) -> DVec3 {
-    let Some(start) = collider.start_pose(bodies, 1.0 / time_ratio) else {
+    let Some(start) = collider.start_pose(bodies, substeps_spanned(time_ratio)) else {
         return previous;
     };
     let local = start.rotation.inverse() * (previous - start.translation);
@@ -304,6 +305,22 @@ fn carried<S>(
     } else {
         previous
     }
+}
+
+/// How many of the bodies' substeps a particle substep spans at most, for `time_ratio` (the
+/// bodies' substep over the particle's, see [`ContactParticle::time_ratio`]): `1/time_ratio`
+/// where the counts divide, else the next whole number — an island taking 3 substeps of the
+/// bodies' 8 is due after 3, 3 and 2 of theirs.
+///
+/// ```
+/// use bevy_verlet_physics::solver::contacts::substeps_spanned;
+/// assert_eq!(substeps_spanned(2.0 / 8.0), 4.0);
+/// assert_eq!(substeps_spanned(3.0 / 8.0), 3.0);
+/// assert_eq!(substeps_spanned(1.0), 1.0);
+/// ```
+pub fn substeps_spanned(time_ratio: f64) -> f64 {
+    // (A margin for rounding: 8/4 must stay 2.)
+    (1.0 / time_ratio - 1e-9).ceil().max(1.0)
 }
 
 /// The contact normal and penetration of a particle of `radius` moving from `previous` to

@@ -19,6 +19,7 @@ use super::bodies::{Body, Pose};
 use super::collider_grid::ColliderGrid;
 use super::contacts::{
     ContactParticle, ContactShape, ExternalCollider, Layers, collide_particle_with,
+    substeps_spanned,
 };
 use super::{Attachment, Executor, GlobalSubstep, Method, Solver, StepConfig, Substep};
 use glam::DVec3;
@@ -360,7 +361,8 @@ impl<S: ContactShape> External<S> {
             return;
         }
         // (The longest particle substep due, in the bodies' substeps.)
-        let substeps = self.due.iter().map(|(_, substep)| substep.h / self.h);
+        let spanned = |substep: &Substep| substeps_spanned(self.h / substep.h);
+        let substeps = self.due.iter().map(|(_, substep)| spanned(substep));
         self.place_colliders(substeps.fold(1.0, f64::max));
         self.impulses.clear();
         for k in 0..self.due.len() {
