@@ -172,6 +172,8 @@ struct Coupled {
     body_entities: Vec<Entity>,
     /// Each body's centre of mass in its own frame (to place its origin).
     body_centres: Vec<DVec3>,
+    /// Each body's proxy as the step began (avian's state then).
+    body_starts: Vec<Body>,
     body_index: EntityHashMap<u32>,
     island_bounds: Vec<(DVec3, DVec3)>,
     /// avian is paused this step.
@@ -331,6 +333,7 @@ impl Coupled {
         self.external.particle_materials.clear();
         self.body_entities.clear();
         self.body_centres.clear();
+        self.body_starts.clear();
         self.body_index.clear();
         self.attached.clear();
         self.placed_anew.clear();
@@ -358,6 +361,7 @@ impl Coupled {
             body
         };
         self.external.bodies.push(body);
+        self.body_starts.push(body);
         self.body_entities.push(entity);
         self.body_centres.push(to_d(data.7.0));
         self.body_index.insert(entity, index);
@@ -369,6 +373,7 @@ impl Coupled {
         let index = self.external.bodies.len() as u32;
         let body = Body::kinematic(pose.translation, pose.rotation, DVec3::ZERO, DVec3::ZERO);
         self.external.bodies.push(body);
+        self.body_starts.push(body);
         self.body_entities.push(Entity::PLACEHOLDER);
         self.body_centres.push(DVec3::ZERO);
         index
@@ -693,12 +698,14 @@ fn apply_impulses(
     // body by `a·Δt²·(n + 1)/(2n)` in a step of `n` substeps.
     let n = f64::from(avian_substeps.map_or(6, |s| s.0).max(1));
     let fall = step * step * (n + 1.0) / (2.0 * n);
-    let moved = coupled.external.bodies.iter_mut();
-    for ((body, &entity), &centre) in moved.zip(&coupled.body_entities).zip(&coupled.body_centres) {
+    let moved = coupled.external.bodies.iter_mut().zip(&coupled.body_starts);
+    let placed = moved.zip(&coupled.body_entities).zip(&coupled.body_centres);
+    for (((body, first), &entity), &centre) in placed {
         let (linear, angular) = body.take_impulse();
         if !body.is_dynamic() || (linear == DVec3::ZERO && angular == DVec3::ZERO) {
             continue;
         }
+        let (start, angular) = turned_back(body, first, (angular, step, n));
         if let Ok(mut forces) = bodies.p0().get_mut(entity) {
             forces.apply_linear_impulse(from_d(linear));
             forces.apply_angular_impulse(angular_from_d(angular));
@@ -707,7 +714,6 @@ fn apply_impulses(
         let Ok((mut position, mut rotation, transform, has_parent)) = poses.get_mut(entity) else {
             continue;
         };
-        let start = DQuat::from_scaled_axis(-body.angular_velocity * step) * body.rotation;
         let velocity_after_impulse = body.velocity - body.acceleration * step;
         let start_centre = body.position - velocity_after_impulse * step - body.acceleration * fall;
         let origin = start_centre - start * centre;
@@ -723,6 +729,28 @@ fn apply_impulses(
             transform.rotation = start.normalize().as_quat();
         }
     }
+}
+
+/// Where avian's step must start `body` turning, and the angular impulse to hand it, so that
+/// its step of `n` substeps over `step` ends where the proxy ended (`first`: the proxy as the
+/// step began, avian's state then): a body that turns about every axis is turned back through
+/// avian's own integration — the rotation by the spin, then the spin by its gyroscopic change
+/// ([`Body::gyroscopic_at`]), undone substep by substep — and handed the angular impulse that
+/// gives it the spin found there; for others (2D, locked rotation) the rotation by the end's
+/// spin over the step, and the particles' impulse `angular` as it is.
+fn turned_back(body: &Body, first: &Body, (angular, step, n): (DVec3, f64, f64)) -> (DQuat, DVec3) {
+    if !body.turns_freely() {
+        let start = DQuat::from_scaled_axis(-body.angular_velocity * step) * body.rotation;
+        return (start, angular);
+    }
+    let h = step / n;
+    let (mut rotation, mut spin) = (body.rotation, body.angular_velocity);
+    for _ in 0..n as u32 {
+        rotation = (DQuat::from_scaled_axis(-spin * h) * rotation).normalize();
+        spin = body.gyroscopic_at(rotation, spin, -h);
+    }
+    let inertia = first.inverse_inertia.inverse();
+    (rotation, inertia * (spin - first.angular_velocity))
 }
 
 /// The substep the plugin is running (set by the step while the substep schedule runs).

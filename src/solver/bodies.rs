@@ -13,7 +13,11 @@
 //! then moves the body by its own step, with the particles' pull in its velocity.
 //!
 //! Static and kinematic bodies have zero inverse mass: they move by their velocity only.
-//! In 2D the inverse inertia has only its `zz` entry, so proxies turn about `Z` only.
+//! In 2D the inverse inertia has only its `zz` entry, so proxies turn about `Z` only. A body
+//! that turns about every axis changes its angular velocity as it turns, keeping its angular
+//! momentum (the gyroscopic term, integrated per substep as avian does it,
+//! [`Body::gyroscopic_at`]), and its world inverse inertia turns with it: the proxy of a box
+//! spun about a slanted axis moves as avian then moves the body.
 
 use glam::{DMat3, DQuat, DVec3};
 
@@ -86,11 +90,15 @@ pub struct Body {
     pub angular_velocity: DVec3,
     /// `1 / mass`; 0 for static and kinematic bodies.
     pub inverse_mass: f64,
-    /// World inverse inertia about the centre of mass (held for the step); zero if immovable.
+    /// World inverse inertia about the centre of mass at the current orientation (turned with
+    /// the body by [`Body::begin_substep`]); zero if immovable.
     pub inverse_inertia: DMat3,
     /// Acceleration applied every substep (gravity × gravity scale for dynamic bodies).
     pub acceleration: DVec3,
     previous: Pose,
+    /// Inverse inertia and inertia in the body's own frame (the inertia where it is invertible:
+    /// a body that turns about every axis, for the gyroscopic term).
+    local_inertia: (DMat3, Option<DMat3>),
     /// Positional corrections of the current substep (mass × length; linear, angular).
     pending: (DVec3, DVec3),
     linear_impulse: DVec3,
@@ -112,17 +120,23 @@ impl Body {
                 translation: position,
                 rotation,
             },
+            local_inertia: (DMat3::ZERO, None),
             pending: (DVec3::ZERO, DVec3::ZERO),
             linear_impulse: DVec3::ZERO,
             angular_impulse: DVec3::ZERO,
         }
     }
 
-    /// A dynamic body at rest with the given inverse mass and world inverse inertia.
+    /// A dynamic body at rest with the given inverse mass and world inverse inertia (at
+    /// `rotation`).
     pub fn dynamic(position: DVec3, rotation: DQuat, inverse_mass: f64, inverse: DMat3) -> Self {
+        let turn = DMat3::from_quat(rotation);
+        let local = turn.transpose() * inverse * turn;
+        let invertible = local.determinant() != 0.0 && local.is_finite();
         Self {
             inverse_mass,
             inverse_inertia: inverse,
+            local_inertia: (local, invertible.then(|| local.inverse())),
             ..Self::kinematic(position, rotation, DVec3::ZERO, DVec3::ZERO)
         }
     }
@@ -206,12 +220,65 @@ impl Body {
         self.velocity + self.angular_velocity.cross(r)
     }
 
-    /// Predicts the pose of a substep of length `h` (XPBD integration).
+    /// Predicts the pose of a substep of length `h` (XPBD integration, Müller et al. 2020,
+    /// Algorithm 2: the angular velocity takes the gyroscopic term, then the pose moves), and
+    /// turns the world inverse inertia with the body.
     pub fn begin_substep(&mut self, h: f64) {
         self.previous = self.pose();
         self.velocity += self.acceleration * h;
+        if self.is_dynamic() {
+            self.gyroscopic(h);
+        }
         self.position += self.velocity * h;
         self.rotation = turned(self.rotation, self.angular_velocity * h);
+        if self.is_dynamic() {
+            let turn = DMat3::from_quat(self.rotation);
+            self.inverse_inertia = turn * self.local_inertia.0 * turn.transpose();
+        }
+    }
+
+    /// Applies [`Body::gyroscopic_at`] at its own rotation.
+    fn gyroscopic(&mut self, h: f64) {
+        self.angular_velocity = self.gyroscopic_at(self.rotation, self.angular_velocity, h);
+    }
+
+    /// The angular velocity `spin` of this body at `rotation` after the torque-free change of
+    /// a step `h`, `L' = L − h·ω × L` in its own frame, as avian integrates it (semi-implicit,
+    /// `|L|` kept so that it adds no energy; Catto 2015, Jolt): an asymmetric body spinning
+    /// keeps its angular momentum, not its angular velocity. `spin` as it is for a body that does
+    /// not turn about every axis (2D, locked rotation): there the term is zero.
+    ///
+    /// ```
+    /// use bevy_verlet_physics::solver::Body;
+    /// use glam::{DMat3, DQuat, DVec3};
+    /// let inverse = DMat3::from_diagonal(DVec3::new(1.0, 0.5, 0.25));
+    /// let body = Body::dynamic(DVec3::ZERO, DQuat::IDENTITY, 1.0, inverse);
+    /// let spin = DVec3::new(1.0, 2.0, 0.0);
+    /// let turned = body.gyroscopic_at(DQuat::IDENTITY, spin, 0.01);
+    /// // The angular momentum keeps its length.
+    /// let momentum = |w: DVec3| inverse.inverse() * w;
+    /// assert!((momentum(turned).length() - momentum(spin).length()).abs() < 1e-12);
+    /// assert!(turned != spin);
+    /// ```
+    pub fn gyroscopic_at(&self, rotation: DQuat, spin: DVec3, h: f64) -> DVec3 {
+        let Some(inertia) = self.local_inertia.1 else {
+            return spin;
+        };
+        let local = rotation.inverse() * spin;
+        let momentum = inertia * local;
+        let turned = momentum - local.cross(momentum) * h;
+        let length = turned.length_squared();
+        if length == 0.0 || !length.is_finite() {
+            return spin;
+        }
+        let kept = turned * (momentum.length_squared() / length).sqrt();
+        rotation * (self.local_inertia.0 * kept)
+    }
+
+    /// Whether the body turns about every axis (a dynamic 3D body without locked rotation):
+    /// where [`Body::gyroscopic_at`] changes its spin.
+    pub fn turns_freely(&self) -> bool {
+        self.is_dynamic() && self.local_inertia.1.is_some()
     }
 
     /// Applies the positional correction `p` (mass × length) at arm `r`: the body moves by
