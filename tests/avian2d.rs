@@ -10,6 +10,9 @@ use bevy_verlet_physics::avian2d::{AvianCouplingStats, BodyAttachment, VerletAvi
 use bevy_verlet_physics::prelude::*;
 use bevy_verlet_physics::solver::collider_grid::MIN_COLLIDERS;
 
+#[path = "shared/ropes.rs"]
+mod ropes;
+
 /// Bevy's default fixed timestep (64 Hz).
 const DT: f32 = 1.0 / 64.0;
 
@@ -722,10 +725,9 @@ fn the_example_scene_smashes_the_stack_and_drapes_the_cloth() {
     );
 }
 
-#[test]
-fn a_moving_body_wakes_a_sleeping_rope() {
-    // A rope hangs asleep from a pin; an avian ball thrown at it wakes it and swings it.
-    let mut app = app(Vec2::new(0.0, -9.81));
+/// A rope of 5 links, 0.5 m, hung from a pin at (0, 1), stepped 3 s until it sleeps: its
+/// bottom particle.
+fn hang_a_rope_until_it_sleeps(app: &mut App) -> Entity {
     let rope = {
         let world = app.world_mut();
         let rope = RopeBuilder::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0), 5)
@@ -735,12 +737,20 @@ fn a_moving_body_wakes_a_sleeping_rope() {
         world.flush();
         rope
     };
-    step(&mut app, 192);
+    step(app, 192);
     let bottom = rope.particles[5];
     assert!(
         app.world().resource::<VerletState>().is_sleeping(bottom),
         "the rope fell asleep"
     );
+    bottom
+}
+
+#[test]
+fn a_moving_body_wakes_a_sleeping_rope() {
+    // A rope hangs asleep from a pin; an avian ball thrown at it wakes it and swings it.
+    let mut app = app(Vec2::new(0.0, -9.81));
+    let bottom = hang_a_rope_until_it_sleeps(&mut app);
     let before = particle(&app, bottom).position;
     spawn(
         &mut app,
@@ -1401,17 +1411,7 @@ fn plank_on_ropes(
 
 /// A body's kinetic and potential energy (avian's state) and its ropes' (the particles').
 fn plank_and_ropes_energy(app: &App, plank: Entity, particles: &[Entity]) -> f64 {
-    let state = app.world().resource::<VerletState>();
-    let (solver, p) = (&state.solver, &state.solver.particles);
-    let ropes: f64 = (particles.iter())
-        .filter_map(|&e| state.slot(e))
-        .filter(|&slot| p.inverse_mass[slot as usize] > 0.0)
-        .map(|slot| {
-            let (i, h) = (slot as usize, solver.state_substep_of(slot).unwrap());
-            let (m, v) = (1.0 / p.inverse_mass[i], (p.position[i] - p.previous[i]) / h);
-            0.5 * m * v.length_squared() + m * 9.81 * p.position[i].y
-        })
-        .sum();
+    let ropes = ropes::particles_energy(app, particles);
     let world = app.world();
     let v = world.get::<LinearVelocity>(plank).unwrap().0;
     let spin = world.get::<AngularVelocity>(plank).unwrap().0;
@@ -1626,21 +1626,7 @@ fn a_fast_bar_wakes_and_sweeps_a_sleeping_rope() {
         damping: 2.0,
         ..default()
     });
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0), 5)
-            .radius(0.02)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
-    step(&mut app, 192);
-    let bottom = rope.particles[5];
-    assert!(
-        app.world().resource::<VerletState>().is_sleeping(bottom),
-        "the rope fell asleep"
-    );
+    let bottom = hang_a_rope_until_it_sleeps(&mut app);
     let before = particle(&app, bottom).position;
     spawn(
         &mut app,

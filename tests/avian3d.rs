@@ -9,6 +9,9 @@ use bevy::time::TimeUpdateStrategy;
 use bevy_verlet_physics::avian3d::{BodyAttachment, VerletAvianPlugin};
 use bevy_verlet_physics::prelude::*;
 
+#[path = "shared/ropes.rs"]
+mod ropes;
+
 /// Bevy's default fixed timestep (64 Hz).
 const DT: f32 = 1.0 / 64.0;
 
@@ -596,18 +599,7 @@ fn a_particle_under_a_heightfields_edge_leaves_it_sideways() {
 /// Kinetic and potential energy (J, `g` = 9.81 m/s² along −y) of `body` and of the particles
 /// `particles` (from the solver's state: velocity over each particle's substep).
 fn body_and_ropes_energy(app: &App, body: Entity, particles: &[Entity]) -> f64 {
-    let state = app.world().resource::<VerletState>();
-    let (solver, p) = (&state.solver, &state.solver.particles);
-    let ropes: f64 = particles
-        .iter()
-        .filter_map(|&e| state.slot(e))
-        .filter(|&s| p.inverse_mass[s as usize] > 0.0)
-        .map(|slot| {
-            let (i, h) = (slot as usize, solver.state_substep_of(slot).unwrap());
-            let (m, v) = (1.0 / p.inverse_mass[i], (p.position[i] - p.previous[i]) / h);
-            0.5 * m * v.length_squared() + m * 9.81 * p.position[i].y
-        })
-        .sum();
+    let ropes = ropes::particles_energy(app, particles);
     let world = app.world();
     let v = world.get::<LinearVelocity>(body).unwrap().0;
     let rotation = world.get::<Rotation>(body).unwrap().0;
