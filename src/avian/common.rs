@@ -706,10 +706,13 @@ fn apply_impulses(
             continue;
         }
         let (start, angular) = turned_back(body, first, (angular, step, n));
-        if let Ok(mut forces) = bodies.p0().get_mut(entity) {
-            forces.apply_linear_impulse(from_d(linear));
-            forces.apply_angular_impulse(angular_from_d(angular));
-        }
+        // (Placed only with its impulse: the placement assumes the velocities it gives.)
+        let mut forces = bodies.p0();
+        let Ok(mut forces) = forces.get_mut(entity) else {
+            continue;
+        };
+        forces.apply_linear_impulse(from_d(linear));
+        forces.apply_angular_impulse(angular_from_d(angular));
         let mut poses = bodies.p1();
         let Ok((mut position, mut rotation, transform, has_parent)) = poses.get_mut(entity) else {
             continue;
@@ -735,9 +738,12 @@ fn apply_impulses(
 /// its step of `n` substeps over `step` ends where the proxy ended (`first`: the proxy as the
 /// step began, avian's state then): a body that turns about every axis is turned back through
 /// avian's own integration — the rotation by the spin, then the spin by its gyroscopic change
-/// ([`Body::gyroscopic_at`]), undone substep by substep — and handed the angular impulse that
-/// gives it the spin found there; for others (2D, locked rotation) the rotation by the end's
-/// spin over the step, and the particles' impulse `angular` as it is.
+/// ([`Body::gyroscopic_before`]), undone substep by substep — and handed the angular impulse
+/// that gives it the spin found there; for others (2D, locked rotation), or where that is not
+/// finite, the rotation by the end's spin over the step, and the particles' impulse `angular`
+/// as it is. (What else avian does to a spin in its step — `AngularDamping`, torques,
+/// `MaxAngularSpeed`, contacts, joints — is not undone; nor does it skip the gyroscopic term
+/// for a nearly isotropic body as avian does, where it is next to nothing.)
 fn turned_back(body: &Body, first: &Body, (angular, step, n): (DVec3, f64, f64)) -> (DQuat, DVec3) {
     if !body.turns_freely() {
         let start = DQuat::from_scaled_axis(-body.angular_velocity * step) * body.rotation;
@@ -747,10 +753,14 @@ fn turned_back(body: &Body, first: &Body, (angular, step, n): (DVec3, f64, f64))
     let (mut rotation, mut spin) = (body.rotation, body.angular_velocity);
     for _ in 0..n as u32 {
         rotation = (DQuat::from_scaled_axis(-spin * h) * rotation).normalize();
-        spin = body.gyroscopic_at(rotation, spin, -h);
+        spin = body.gyroscopic_before(rotation, spin, h);
     }
-    let inertia = first.inverse_inertia.inverse();
-    (rotation, inertia * (spin - first.angular_velocity))
+    let impulse = first.inverse_inertia().inverse() * (spin - first.angular_velocity);
+    if !(impulse.is_finite() && rotation.is_finite()) {
+        let start = DQuat::from_scaled_axis(-body.angular_velocity * step) * body.rotation;
+        return (start, angular);
+    }
+    (rotation, impulse)
 }
 
 /// The substep the plugin is running (set by the step while the substep schedule runs).

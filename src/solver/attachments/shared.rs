@@ -64,7 +64,7 @@ pub(super) fn prepare_pulls(
         }
         let body = &bodies[a.body as usize];
         let arm = (body.rotation * a.anchor).cross(a.direction);
-        scratch.pulls[k] = [a.direction, body.inverse_inertia * arm, arm];
+        scratch.pulls[k] = [a.direction, body.inverse_inertia() * arm, arm];
     }
 }
 
@@ -252,7 +252,7 @@ fn solve_joint(attachments: &[Attachment], body: &Body, scratch: &mut Attachment
         g22 -= c * c / w;
     }
     // `G₂₁ = −G₁₂` ([r]ₓ is skew); `I + G M⁻¹`, row-major.
-    let (w_body, inertia) = (body.inverse_mass, body.inverse_inertia);
+    let (w_body, inertia) = (body.inverse_mass, body.inverse_inertia());
     let blocks = [
         [DMat3::IDENTITY + g11 * w_body, g12 * inertia],
         [-g12 * w_body, DMat3::IDENTITY + g22 * inertia],
