@@ -453,7 +453,7 @@ fn gather_colliders(
             .and_then(|of| coupled.add_body(world, of.body))
             .unwrap_or_else(|| coupled.add_static(pose));
         let body_pose = coupled.external.bodies[index as usize].pose();
-        // (Checked once per collider, and again when it changes.)
+        // (Checked once per triangle mesh shape.)
         let closed = closed_mesh(&mut coupled.closed_meshes, &collider);
         let [last, now] = &mut coupled.collider_poses;
         let placed = (pose, *aabb);
