@@ -189,8 +189,9 @@ pub struct ContactParticle<'a> {
     pub material: Option<(f64, f64)>,
 }
 
-/// Resolves the contacts of one particle against `colliders` (whose world poses and bounds for
-/// this substep are `placed`). Body impulses from the response are added to `impulses` as
+/// Resolves the contacts of one particle against `colliders` (whose world poses for this
+/// substep, and bounds swept over it — at their start pose, see [`ExternalCollider::start_pose`],
+/// and now — are `placed`). Body impulses from the response are added to `impulses` as
 /// `(body, arm, impulse)` (mass × displacement per substep), to apply after the bodies' velocity
 /// update. Returns whether the particle touched anything.
 pub fn collide_particle<S: ContactShape>(
@@ -206,8 +207,8 @@ pub fn collide_particle<S: ContactShape>(
     collide_particle_with(particle, state, all, world)
 }
 
-/// What a particle's contacts read and write: the colliders, their world poses and bounds for
-/// this substep, the bodies, and the body impulses `(body, arm, impulse)` (see
+/// What a particle's contacts read and write: the colliders, their world poses for this
+/// substep and bounds swept over it, the bodies, and the body impulses `(body, arm, impulse)` (see
 /// [`collide_particle`]).
 pub type ContactWorld<'w, S> = (
     &'w [ExternalCollider<S>],
@@ -234,17 +235,15 @@ pub fn collide_particle_with<S: ContactShape>(
         let (collider, &(pose, lo, hi)) = (&colliders[i], &placed[i]);
         // (A margin thickens the collider: the particle meets it as if that much larger.)
         let radius = particle_radius + collider.margin;
-        if !particle.layers.interacts_with(collider.layers)
+        let (swept_lo, swept_hi) = (position.min(*previous), position.max(*previous));
+        if !overlaps((swept_lo - radius, swept_hi + radius), (lo, hi))
+            || !particle.layers.interacts_with(collider.layers)
             || particle.connected.contains(&collider.body)
         {
             continue;
         }
+        // (Only for a collider whose swept bounds it met.)
         let start = carried(*previous, collider, pose, bodies, particle.time_ratio);
-        let swept_lo = position.min(*previous).min(start);
-        let swept_hi = position.max(*previous).max(start);
-        if !overlaps((swept_lo - radius, swept_hi + radius), (lo, hi)) {
-            continue;
-        }
         let Some((normal, depth)) = penetration(&collider.shape, pose, *position, start, radius)
         else {
             continue;
@@ -472,7 +471,13 @@ mod tests {
         let (mut x, mut previous) = (start + velocity * h, start);
         let colliders = [ball_on(0)];
         let pose = colliders[0].pose(&bodies);
-        let placed = [(pose, pose.translation - 1.0, pose.translation + 1.0)];
+        // (Bounds swept over the substep, as `External` places them.)
+        let start = colliders[0].start_pose(&bodies, 1.0).unwrap_or(pose);
+        let (lo, hi) = (
+            pose.translation.min(start.translation),
+            pose.translation.max(start.translation),
+        );
+        let placed = [(pose, lo - 1.0, hi + 1.0)];
         let mut impulses = Vec::new();
         let particle = ContactParticle {
             layers: Layers::default(),

@@ -113,9 +113,6 @@ pub struct External<S> {
     connected_pairs: Vec<(u32, u32)>,
     scratch: AttachmentScratch,
     placed: Vec<(Pose, DVec3, DVec3)>,
-    /// Each collider's bounds swept over the substep, grown by its margin (see
-    /// `External::place_colliders`).
-    swept: Vec<(DVec3, DVec3)>,
     impulses: Vec<(u32, DVec3, DVec3)>,
     due: Vec<(Range<usize>, Substep)>,
     h: f64,
@@ -151,7 +148,6 @@ impl<S> Default for External<S> {
             connected_pairs: Vec::new(),
             scratch: AttachmentScratch::default(),
             placed: Vec::new(),
-            swept: Vec::new(),
             impulses: Vec::new(),
             due: Vec::new(),
             h: 0.0,
@@ -383,26 +379,21 @@ impl<S: ContactShape> External<S> {
 
     /// Each collider's pose and bounds for this substep, and the bounds of them all (grown by
     /// their margins and the largest particle radius) for the particles' first, cheap test.
-    /// That test and the grid take each collider's bounds swept over the longest particle
-    /// substep due (`substeps` of the bodies'): a collider that passed a particle standing still
-    /// is still offered to it, to be swept relative to it (see [`collide_particle_with`]).
+    /// The bounds are swept over the longest particle substep due (`substeps` of the bodies'):
+    /// a collider that passed a particle standing still is still offered to it, to be swept
+    /// relative to it (see [`collide_particle_with`]).
     fn place_colliders(&mut self, substeps: f64) {
         self.placed.clear();
-        self.swept.clear();
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for collider in &self.colliders {
             let pose = collider.pose(&self.bodies);
-            let (a, b) = collider.shape.bounds(pose);
+            let (mut a, mut b) = collider.shape.bounds(pose);
+            if let Some(start) = collider.start_pose(&self.bodies, substeps) {
+                let (c, d) = collider.shape.bounds(start);
+                (a, b) = (a.min(c), b.max(d));
+            }
             self.placed.push((pose, a, b));
-            let (a, b) = match collider.start_pose(&self.bodies, substeps) {
-                Some(start) => {
-                    let (c, d) = collider.shape.bounds(start);
-                    (a.min(c), b.max(d))
-                }
-                None => (a, b),
-            };
             let margin = collider.margin;
-            self.swept.push((a - margin, b + margin));
             (lo, hi) = (lo.min(a - margin), hi.max(b + margin));
         }
         self.reach = (lo - self.max_radius, hi + self.max_radius);
@@ -410,7 +401,9 @@ impl<S: ContactShape> External<S> {
         self.largest_margin = margins.clone().fold(0.0, f64::max);
         // (A query's buffer: more than it holds and the particle tests every collider.)
         self.near.resize((4 * self.colliders.len()).max(64), 0);
-        self.grid.build(self.swept.iter().copied());
+        let bounds = self.placed.iter().zip(margins);
+        let bounds = bounds.map(|(&(_, a, b), margin)| (a - margin, b + margin));
+        self.grid.build(bounds);
     }
 
     fn collide_range(&mut self, solver: &mut Solver, range: Range<usize>, substep: &Substep) {
