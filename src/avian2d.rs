@@ -107,7 +107,23 @@ fn height_under(field: &parry::shape::HeightField, local: Vec2) -> Option<f32> {
     Some(a.y + (b.y - a.y) * along.clamp(0.0, 1.0))
 }
 
+/// The parts of a shape made of solid parts: a compound, or a triangle mesh (its triangles are
+/// solid in 2D); `None` for other shapes (see `avian/parts.rs`).
+fn solid_parts(shape: &parry::shape::SharedShape) -> Option<&dyn parry::shape::CompositeShape> {
+    match shape.as_compound() {
+        Some(compound) => Some(compound),
+        None => Some(shape.as_trimesh()?),
+    }
+}
+
+/// The fixed directions a point inside a shape made of parts tries to leave it along: 16,
+/// 22.5° apart, from the shape's x axis (see `avian/parts.rs`).
+fn exit_directions() -> impl Iterator<Item = Vec2> {
+    (0..16).map(|k| Vec2::from_angle(k as f32 * std::f32::consts::TAU / 16.0))
+}
+
 include!("avian/hollow.rs");
+include!("avian/parts.rs");
 include!("avian/common.rs");
 
 #[path = "avian/scene2d.rs"]

@@ -150,5 +150,25 @@ fn height_under(field: &parry::shape::HeightField, local: Vec3) -> Option<f32> {
     })
 }
 
+/// The parts of a shape made of solid parts: a compound (a triangle mesh's triangles have no
+/// inside in 3D, see `avian/hollow.rs`); `None` for other shapes (see `avian/parts.rs`).
+fn solid_parts(shape: &parry::shape::SharedShape) -> Option<&dyn parry::shape::CompositeShape> {
+    Some(shape.as_compound()?)
+}
+
+/// The fixed directions a point inside a shape made of parts tries to leave it along: the 26
+/// from a cube's centre through its faces, edges and corners, in the shape's frame (see
+/// `avian/parts.rs`).
+fn exit_directions() -> impl Iterator<Item = Vec3> {
+    let steps = [-1.0, 0.0, 1.0];
+    let corners = steps.into_iter().flat_map(move |x| {
+        steps
+            .into_iter()
+            .flat_map(move |y| steps.into_iter().map(move |z| Vec3::new(x, y, z)))
+    });
+    corners.filter_map(|d| d.try_normalize())
+}
+
 include!("avian/hollow.rs");
+include!("avian/parts.rs");
 include!("avian/common.rs");

@@ -47,15 +47,17 @@ fn closed_mesh(cache: &mut ClosedMeshes, collider: &Collider) -> bool {
 }
 
 /// For a heightfield or a closed triangle mesh with pseudo-normals: the surface point closest
-/// to `point` and whether `point` is inside the shape at `pose`; `None` for other shapes (and
-/// for a point over or beside a hole in a heightfield).
+/// to `point` and whether `point` is inside the shape at `pose`; for a point inside a shape
+/// made of solid parts, its way out (`avian/parts.rs`); `None` for other shapes and points
+/// (and for a point over or beside a hole in a heightfield).
 fn project_with_inside(shape: &AvianShape, pose: Pose, point: DVec3) -> Option<(DVec3, bool)> {
     let parry_shape = shape.collider.shape_scaled();
     let local = from_d(pose.rotation.inverse() * (point - pose.translation));
     let (surface, inside) = match parry_shape.as_heightfield() {
         Some(field) => project_on_heightfield(field, local)?,
         None if shape.closed => oriented_mesh_projection(parry_shape, local)?,
-        None => return None,
+        // (Shapes made of parts: the way out of a point inside, see `avian/parts.rs`.)
+        None => project_out_of_parts(parry_shape, local)?,
     };
     Some((pose.translation + pose.rotation * to_d(surface), inside))
 }
