@@ -142,7 +142,7 @@
 
 use super::Sticks;
 use super::shared::SharedSlice;
-use super::sticks::{SweepOrder, coincident_direction, relax_stick_range};
+use super::sticks::{SweepOrder, relax_stick_range, unit_and_length};
 use super::{StickKind, lines::Line};
 use curvature::Root;
 
@@ -150,10 +150,12 @@ mod closure;
 mod curvature;
 mod elimination;
 mod fallback;
+mod passes;
 mod second_try;
 mod start;
-pub(crate) use elimination::{converges_next, line_residual};
+pub(crate) use elimination::line_residual;
 use glam::DVec3;
+pub(crate) use passes::{NewtonSystem, newton_passes};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A line is solved once its largest `|C + α̃λ|/L` is below this.
@@ -988,18 +990,6 @@ impl LineSolve<'_, '_> {
     unsafe fn kind(&self, s: usize) -> StickKind {
         // SAFETY: in bounds (caller).
         unsafe { *self.sticks.kind.get_unchecked(s) }
-    }
-}
-
-/// The unit vector along `d` and its length; for (nearly) coincident ends, stick `s`'s fixed
-/// push-apart direction (see [`sticks`](super::sticks)).
-#[inline(always)]
-fn unit_and_length(d: DVec3, s: usize) -> (DVec3, f64) {
-    let length = d.length();
-    if length > 1e-12 {
-        (d / length, length)
-    } else {
-        (coincident_direction(s), length)
     }
 }
 

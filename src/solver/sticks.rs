@@ -187,6 +187,19 @@ pub(crate) fn coincident_direction(i: usize) -> DVec3 {
     DVec3::new(cos, sin, 0.0)
 }
 
+/// The unit vector along `d` (stick `i`'s, from one end to the other) and its length; for
+/// (nearly) coincident ends, stick `i`'s fixed push-apart direction ([`coincident_direction`]).
+/// Shared by the line and tree solves.
+#[inline(always)]
+pub(crate) fn unit_and_length(d: DVec3, i: usize) -> (DVec3, f64) {
+    let length = d.length();
+    if length > MIN_LENGTH {
+        (d / length, length)
+    } else {
+        (coincident_direction(i), length)
+    }
+}
+
 /// A stick's two ends as the sweeps need them.
 struct End {
     a: usize,

@@ -92,13 +92,13 @@
 //! ```
 
 use super::direct::{
-    Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, SHAKE_CONTRACTION,
-    SHAKE_MIN_COSINE, SHAKE_PASSES, SHAKE_STIFFNESS_BELOW, STABILISE_ABOVE, TOLERANCE,
-    converges_next, in_system, in_system_with, line_residual, tension_stiffness,
+    Begun, CURVATURE_BELOW, FULL_NEWTON_AFTER, LineMode, MAX_PASSES, NewtonSystem,
+    SHAKE_CONTRACTION, SHAKE_MIN_COSINE, SHAKE_PASSES, SHAKE_STIFFNESS_BELOW, STABILISE_ABOVE,
+    TOLERANCE, in_system, in_system_with, line_residual, newton_passes, tension_stiffness,
 };
 use super::lines::Incidence;
 use super::shared::SharedSlice;
-use super::sticks::{SweepOrder, coincident_direction, relax_stick_range};
+use super::sticks::{SweepOrder, relax_stick_range, unit_and_length};
 use super::{Particles, StickKind, Sticks};
 use glam::{DMat3, DVec3};
 use std::ops::Range;
@@ -882,16 +882,6 @@ fn set_betas(records: &mut [Closing], beta: impl Fn(DVec3) -> f64) {
 /// `x yᵀ`.
 fn outer(x: DVec3, y: DVec3) -> DMat3 {
     DMat3::from_cols(x * y.x, x * y.y, x * y.z)
-}
-
-/// The unit vector along `d` and its length (stick `k`'s fixed direction for coincident ends).
-fn unit_and_length(d: DVec3, k: usize) -> (DVec3, f64) {
-    let length = d.length();
-    if length > 1e-12 {
-        (d / length, length)
-    } else {
-        (coincident_direction(k), length)
-    }
 }
 
 /// What the tree solve's unit tests share.

@@ -5,17 +5,17 @@
 //! system singular. See the [parent module's docs](super).
 
 use super::{
-    LineMode, LineRef, LineSolve, REGULARISATION, Row, StickKind, SweepOrder, TOLERANCE,
-    in_system_with, relax_stick_range, unit_and_length,
+    LineMode, LineRef, LineSolve, NewtonSystem, REGULARISATION, Row, StickKind, SweepOrder,
+    in_system_with, newton_passes, relax_stick_range, unit_and_length,
 };
 use glam::DVec3;
 
 impl LineSolve<'_, '_> {
-    /// Newton passes until the line is within [`TOLERANCE`], `budget` passes are done, or a pass
-    /// leaves more than `contraction` × the error before it. `predicted` is the error before the
-    /// warm start: a warm start that made things worse is taken back. `fused`: the error to
-    /// start from is measured in the first pass's elimination (see [`converges_next`]). Returns
-    /// the passes taken and whether it converged.
+    /// Newton passes over `line` ([`newton_passes`]: until it is within [`TOLERANCE`](super::TOLERANCE), `budget`
+    /// passes are done, or a pass leaves more than `contraction` × the error before it; a warm
+    /// start that made the error worse than `predicted` is taken back; `fused`: the error to
+    /// start from is measured in the first pass's elimination). Returns the passes taken and
+    /// whether it converged.
     ///
     /// # Safety
     /// As for [`LineSolve::solve`], and `line` passed [`LineSolve::check`] (every index below is
@@ -28,44 +28,8 @@ impl LineSolve<'_, '_> {
         predicted: f64,
         fused: bool,
     ) -> (u32, bool) {
-        // SAFETY: this task alone holds the line, whose indices are in bounds (this function's
-        // contract).
-        unsafe {
-            let mut passes = 0;
-            let mut error = if fused {
-                self.forward::<true>(line)
-            } else {
-                self.residual(line)
-            };
-            if error > predicted {
-                self.take_back(line);
-                error = self.residual(line);
-            }
-            let mut before = f64::INFINITY;
-            let mut eliminated = fused;
-            loop {
-                if error <= TOLERANCE {
-                    return (passes, true);
-                }
-                if passes == budget || error > contraction * before {
-                    return (passes, false);
-                }
-                let earlier = std::mem::replace(&mut before, error);
-                if !eliminated {
-                    self.forward::<false>(line);
-                }
-                self.backward(line);
-                passes += 1;
-                // Check with the lengths alone where this pass likely converged, else in the
-                // next pass's forward traversal (see [`converges_next`]).
-                eliminated = !converges_next(error, earlier);
-                error = if eliminated {
-                    self.forward::<true>(line)
-                } else {
-                    self.residual(line)
-                };
-            }
-        }
+        let mut system = LinePasses { solve: self, line };
+        newton_passes(&mut system, budget, contraction, predicted, fused)
     }
 
     /// One Gauss–Seidel sweep over the line's sticks, in order (see [`LineMode::Sweep`]).
@@ -320,17 +284,40 @@ pub(crate) fn line_residual(
     error / rest.max(1e-12)
 }
 
-/// Whether a Newton pass that started at error `error` likely ends below [`TOLERANCE`], the
-/// pass before it having started at `earlier` (`∞` for the first pass): Newton squares its
-/// error near a root, `e_next ≈ K·e²`, with `K ≈ error / earlier²` from the pass before; the
-/// first pass is expected to converge. It decides how the pass is checked: a traversal of
-/// lengths alone (cheap when it is the last), or the residual measured on the way through the
-/// next pass's forward traversal (free when a pass follows, an elimination spent in vain when
-/// it does not). Measured with callgrind on whole test programs (8 × 1; the same passes and
-/// results, to the bit): a 100-link 1000:1 chain swinging 5 s −6.6 % instructions, the swinging
-/// Y rope of `tests/direct.rs` (a tree) −3.6 %, a 50 × 50 cloth hanging by lines for 2 s
-/// +0.04 % (its lines converge in a pass or none). Fusing every check after the first pass
-/// instead (with the residual measured in every forward traversal): −1.7 %, +4.6 %, +11 %.
-pub(crate) fn converges_next(error: f64, earlier: f64) -> bool {
-    error * error * error <= TOLERANCE * earlier * earlier
+/// A line's system as [`newton_passes`] drives it. Made only in [`LineSolve::newton`], under
+/// its contract: the task alone holds the line, whose indices passed [`LineSolve::check`].
+struct LinePasses<'s, 'a, 'v> {
+    solve: &'s LineSolve<'a, 'v>,
+    line: &'s LineRef<'s>,
+}
+
+impl NewtonSystem for LinePasses<'_, '_, '_> {
+    #[inline(always)]
+    fn residual(&mut self) -> f64 {
+        // SAFETY: `LineSolve::newton`'s contract, under which this was made.
+        unsafe { self.solve.residual(self.line) }
+    }
+
+    #[inline(always)]
+    fn take_back(&mut self) {
+        // SAFETY: as for `residual`.
+        unsafe { self.solve.take_back(self.line) }
+    }
+
+    #[inline(always)]
+    fn eliminate(&mut self, measure: bool) -> f64 {
+        // SAFETY: as for `residual`.
+        unsafe {
+            match measure {
+                true => self.solve.forward::<true>(self.line),
+                false => self.solve.forward::<false>(self.line),
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn substitute(&mut self) {
+        // SAFETY: as for `residual`.
+        unsafe { self.solve.backward(self.line) }
+    }
 }

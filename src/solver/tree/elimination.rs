@@ -5,61 +5,33 @@
 //! [parent module's docs](super).
 
 use super::{
-    Closing, LineMode, Node, REGULARISATION, Row, TOLERANCE, TreeSolve, TreeView, closings,
-    converges_next, in_system_with, line_residual, set_betas, unit_and_length,
+    Closing, LineMode, NewtonSystem, Node, REGULARISATION, Row, TreeSolve, TreeView, closings,
+    in_system_with, line_residual, newton_passes, set_betas, unit_and_length,
 };
 use glam::DVec3;
 
 impl TreeSolve<'_, '_> {
-    /// Newton passes until the tree is within [`TOLERANCE`], `budget` passes are done, or a pass
-    /// leaves more than `contraction` × the error before it (a warm start that made things
-    /// worse than `predicted` is taken back first).
+    /// Newton passes over the tree ([`newton_passes`]: until it is within [`TOLERANCE`](super::TOLERANCE),
+    /// `budget` passes are done, or a pass leaves more than `contraction` × the error before it;
+    /// a warm start that made things worse than `predicted` is taken back first).
     ///
     /// # Safety
     /// As for [`TreeSolve::solve`].
     pub(super) unsafe fn newton(
         &self,
         view: &TreeView,
-        (s, more): (&mut [Node], &mut [Closing]),
+        (nodes, closings): (&mut [Node], &mut [Closing]),
         budget: u32,
         contraction: f64,
         predicted: f64,
     ) -> (u32, bool) {
-        // SAFETY: as for `solve` (caller).
-        unsafe {
-            let mut error = self.residual(view);
-            if error > predicted {
-                self.take_back(view, s);
-                error = self.residual(view);
-            }
-            let mut passes = 0;
-            let mut before = f64::INFINITY;
-            let mut eliminated = false;
-            loop {
-                if error <= TOLERANCE {
-                    return (passes, true);
-                }
-                if passes == budget || error > contraction * before {
-                    return (passes, false);
-                }
-                let earlier = std::mem::replace(&mut before, error);
-                if !eliminated {
-                    self.gauss_newton_forward::<false>(view, (s, more));
-                }
-                if view.closing.is_some() {
-                    self.close(view, (s, more));
-                }
-                self.backward(view, s);
-                passes += 1;
-                // (As for lines: see `direct::converges_next`.)
-                eliminated = !converges_next(error, earlier);
-                error = if eliminated {
-                    self.gauss_newton_forward::<true>(view, (s, more))
-                } else {
-                    self.residual(view)
-                };
-            }
-        }
+        let mut system = TreePasses {
+            solve: self,
+            view,
+            nodes,
+            closings,
+        };
+        newton_passes(&mut system, budget, contraction, predicted, false)
     }
 
     /// The parent stick of node `t` at the current iterate.
@@ -357,6 +329,52 @@ impl TreeSolve<'_, '_> {
                     }
                 }
             }
+        }
+    }
+}
+
+/// A tree's system as [`newton_passes`] drives it. Made only in [`TreeSolve::newton`], under
+/// its contract (that of [`TreeSolve::solve`]).
+struct TreePasses<'s, 'a, 'v> {
+    solve: &'s TreeSolve<'a, 'v>,
+    view: &'s TreeView<'s>,
+    nodes: &'s mut [Node],
+    closings: &'s mut [Closing],
+}
+
+impl NewtonSystem for TreePasses<'_, '_, '_> {
+    #[inline(always)]
+    fn residual(&mut self) -> f64 {
+        // SAFETY: `TreeSolve::newton`'s contract, under which this was made.
+        unsafe { self.solve.residual(self.view) }
+    }
+
+    #[inline(always)]
+    fn take_back(&mut self) {
+        // SAFETY: as for `residual`.
+        unsafe { self.solve.take_back(self.view, self.nodes) }
+    }
+
+    #[inline(always)]
+    fn eliminate(&mut self, measure: bool) -> f64 {
+        let system = (&mut *self.nodes, &mut *self.closings);
+        // SAFETY: as for `residual`.
+        unsafe {
+            match measure {
+                true => self.solve.gauss_newton_forward::<true>(self.view, system),
+                false => self.solve.gauss_newton_forward::<false>(self.view, system),
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn substitute(&mut self) {
+        // SAFETY: as for `residual`.
+        unsafe {
+            if self.view.closing.is_some() {
+                self.solve.close(self.view, (self.nodes, self.closings));
+            }
+            self.solve.backward(self.view, self.nodes);
         }
     }
 }
