@@ -10,6 +10,7 @@ use bevy_verlet_physics::avian2d::{AvianCouplingStats, BodyAttachment, VerletAvi
 use bevy_verlet_physics::prelude::*;
 use bevy_verlet_physics::solver::collider_grid::MIN_COLLIDERS;
 
+mod random;
 #[path = "shared/ropes.rs"]
 mod ropes;
 
@@ -1796,13 +1797,8 @@ fn particles_inside_a_compound_all_come_out() {
     ]);
     let mut app = app(Vec2::ZERO);
     let block = spawn(&mut app, (RigidBody::Static, l_shape.clone()));
-    let mut seed = 7u64;
-    let mut random = move || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut scan = random::Scan::of_scene(7, 0);
+    let mut random = move || scan.next() as f32;
     let mut particles = Vec::new();
     while particles.len() < 200 {
         let point = Vec2::new(-1.1 + 2.2 * random(), -0.4 + 2.3 * random());
