@@ -13,6 +13,7 @@ use bevy_verlet_physics::solver::collider_grid::MIN_COLLIDERS;
 mod random;
 #[path = "shared/ropes.rs"]
 mod ropes;
+use ropes::spawn_rope;
 
 /// Bevy's default fixed timestep (64 Hz).
 const DT: f32 = 1.0 / 64.0;
@@ -202,15 +203,12 @@ fn rope_pendulum_with_an_avian_bob(settings: Option<IslandOverride>) {
             Transform::from_translation(end),
         ),
     );
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::ZERO, end, links)
+    let rope = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::ZERO, end, links)
             .mass(0.01)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
+            .pin_start(),
+    );
     let last = *rope.particles.last().unwrap();
     app.world_mut()
         .entity_mut(last)
@@ -371,14 +369,10 @@ fn free_rope_swinging_a_box(
         &mut app,
         (RigidBody::Dynamic, Collider::rectangle(0.1, 0.1), Mass(1.0)),
     );
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.6, 0.0, 0.0), 5)
-            .mass(0.1)
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
+    let rope = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.6, 0.0, 0.0), 5).mass(0.1),
+    );
     let first = rope.particles[0];
     app.world_mut()
         .entity_mut(first)
@@ -579,15 +573,12 @@ fn a_heavy_rope_drags_a_light_body_and_a_kinematic_body_carries_its_particle() {
             Transform::from_xyz(1.0, 0.0, 0.0),
         ),
     );
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::ZERO, Vec3::new(1.0, 0.05, 0.0), 9)
+    let rope = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::ZERO, Vec3::new(1.0, 0.05, 0.0), 9)
             .mass(0.1)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
+            .pin_start(),
+    );
     let end = *rope.particles.last().unwrap();
     app.world_mut()
         .entity_mut(end)
@@ -659,14 +650,10 @@ fn a_particle_asks_for_its_own_bounce() {
     let drop = |x: f32| Particle::new(Vec3::new(x, 1.05, 0.0)).with_radius(0.05);
     let dead = spawn(&mut app, drop(-2.0));
     let bouncy = spawn(&mut app, (drop(0.0), Restitution::new(1.0)));
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::new(2.0, 1.05, 0.0), Vec3::new(2.3, 1.05, 0.0), 1)
-            .radius(0.05)
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
+    let rope = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::new(2.0, 1.05, 0.0), Vec3::new(2.3, 1.05, 0.0), 1).radius(0.05),
+    );
     app.world_mut()
         .entity_mut(rope.root)
         .insert(Restitution::new(1.0));
@@ -764,15 +751,12 @@ fn the_example_scene_smashes_the_stack_and_drapes_the_cloth() {
 /// A rope of 5 links, 0.5 m, hung from a pin at (0, 1), stepped 3 s until it sleeps: its
 /// bottom particle.
 fn hang_a_rope_until_it_sleeps(app: &mut App) -> Entity {
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0), 5)
+    let rope = spawn_rope(
+        app,
+        RopeBuilder::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0), 5)
             .radius(0.02)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
+            .pin_start(),
+    );
     step(app, 192);
     let bottom = rope.particles[5];
     assert!(
@@ -1125,16 +1109,13 @@ fn a_rope_never_collides_with_any_of_the_bodies_hung_on_it() {
     // overlapping the rope particles beside its knot: like avian's joints, an attachment
     // keeps its island and the body apart — all three, not only the first two.
     let mut app = app(Vec2::new(0.0, -9.81));
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -0.6, 0.0), 12)
+    let rope = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -0.6, 0.0), 12)
             .mass(0.01)
             .radius(0.01)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
+            .pin_start(),
+    );
     for knot in [4, 8, 12] {
         let at = particle(&app, rope.particles[knot]).position;
         let lantern = spawn(
@@ -1253,14 +1234,7 @@ fn a_box_with_a_rope_on_each_side_keeps_the_momentum() {
         let mut particles = Vec::new();
         for (side, speed) in [(0.1f32, 2.0f32), (-0.1, 0.0)] {
             let (start, end) = (Vec3::X * side, Vec3::X * (side + 5.0 * side));
-            let rope = {
-                let world = app.world_mut();
-                let rope = RopeBuilder::new(start, end, 5)
-                    .mass(0.1)
-                    .spawn(&mut world.commands());
-                world.flush();
-                rope
-            };
+            let rope = spawn_rope(&mut app, RopeBuilder::new(start, end, 5).mass(0.1));
             let first = rope.particles[0];
             let tie = BodyAttachment::new(body, Vec2::new(side, 0.0));
             app.world_mut().entity_mut(first).insert(tie);

@@ -11,6 +11,7 @@ use bevy_verlet_physics::prelude::*;
 
 #[path = "shared/ropes.rs"]
 mod ropes;
+use ropes::spawn_rope;
 
 /// Bevy's default fixed timestep (64 Hz).
 const DT: f32 = 1.0 / 64.0;
@@ -138,15 +139,10 @@ fn a_rope_pendulum_with_an_avian_bob_keeps_its_period_and_swing() {
             Transform::from_translation(end),
         ))
         .id();
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::ZERO, end, 10)
-            .mass(0.01)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
+    let rope = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::ZERO, end, 10).mass(0.01).pin_start(),
+    );
     let last = *rope.particles.last().unwrap();
     app.world_mut()
         .entity_mut(last)
@@ -191,15 +187,12 @@ fn a_crate_hung_off_centre_turns_to_hang_below_its_attachment() {
             Transform::from_xyz(0.0, -1.0, 0.0),
         ))
         .id();
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0) + corner, 8)
+    let rope = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0) + corner, 8)
             .mass(0.02)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
-        rope
-    };
+            .pin_start(),
+    );
     let end = *rope.particles.last().unwrap();
     app.world_mut()
         .entity_mut(end)
@@ -304,15 +297,12 @@ fn a_platform_swung_on_four_ropes_keeps_its_period_and_stays_level() {
     let mut ends = Vec::new();
     for (x, z) in corners {
         let (top, corner) = (Vec3::new(x, 0.0, z), Vec3::new(x, 0.0, z));
-        let rope = {
-            let world = app.world_mut();
-            let rope = RopeBuilder::new(top, centre + corner, 10)
+        let rope = spawn_rope(
+            &mut app,
+            RopeBuilder::new(top, centre + corner, 10)
                 .mass(0.01)
-                .pin_start()
-                .spawn(&mut world.commands());
-            world.flush();
-            rope
-        };
+                .pin_start(),
+        );
         let end = *rope.particles.last().unwrap();
         app.world_mut()
             .entity_mut(end)

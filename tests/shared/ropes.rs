@@ -3,6 +3,14 @@
 use bevy::prelude::*;
 use bevy_verlet_physics::prelude::*;
 
+/// Spawns `rope` into `app`'s world at once (its entities flushed) and returns it.
+pub fn spawn_rope(app: &mut App, rope: RopeBuilder) -> Composite {
+    let world = app.world_mut();
+    let rope = rope.spawn(&mut world.commands());
+    world.flush();
+    rope
+}
+
 /// Kinetic and potential energy (J, `g` = 9.81 m/s² along −y) of the movable ones of
 /// `particles`, from the solver's state (velocity over each particle's own substep).
 pub fn particles_energy(app: &App, particles: &[Entity]) -> f64 {
