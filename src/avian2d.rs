@@ -65,10 +65,37 @@ fn keep_depth(surface: DVec3, point: DVec3) -> DVec3 {
     surface.with_z(point.z)
 }
 
-/// `false`: in 2D no triangle mesh needs pseudo-normals for its inside (see
-/// `oriented_mesh_projection`).
-fn is_closed_mesh(_: &Collider) -> bool {
-    false
+/// What gives `collider`, a triangle mesh, an inside: its outline — the edges of one triangle
+/// only, its vertices merged where they are at the same place — or nothing for a mesh without
+/// one (see `avian/parts.rs`). Allocates: run once per shape (`mesh_inside`).
+fn inside_of_mesh(collider: &Collider) -> MeshInside {
+    let Some(mesh) = collider.shape_scaled().as_trimesh() else {
+        return MeshInside::None;
+    };
+    let vertices = mesh.vertices();
+    let mut first_at = std::collections::HashMap::new();
+    let same: Vec<u32> = (0..vertices.len() as u32)
+        .map(|i| {
+            let at = vertices[i as usize].to_array().map(f32::to_bits);
+            *first_at.entry(at).or_insert(i)
+        })
+        .collect();
+    let mut edges: Vec<[u32; 2]> = (mesh.indices().iter())
+        .flat_map(|&[a, b, c]| [[a, b], [b, c], [c, a]])
+        .map(|ends| ends.map(|i| same[i as usize]))
+        .filter(|[a, b]| a != b)
+        .map(|[a, b]| [a.min(b), a.max(b)])
+        .collect();
+    edges.sort_unstable();
+    let once: Vec<[u32; 2]> = (edges.chunk_by(|a, b| a == b))
+        .filter(|run| run.len() == 1)
+        .map(|run| run[0])
+        .collect();
+    if once.is_empty() {
+        return MeshInside::None;
+    }
+    let outline = parry::shape::Polyline::new(vertices.to_vec(), Some(once));
+    MeshInside::Outline(std::sync::Arc::new(outline))
 }
 
 /// `None`: a 2D triangle mesh's triangles are solid already, and parry reports their inside

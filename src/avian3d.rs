@@ -73,10 +73,19 @@ fn keep_depth(surface: DVec3, _: DVec3) -> DVec3 {
     surface
 }
 
+/// What gives `collider`, a triangle mesh, an inside: being closed, with pseudo-normals
+/// ([`is_closed_mesh`]), or nothing (see `avian/hollow.rs`). Allocates: run once per shape
+/// (`mesh_inside`).
+fn inside_of_mesh(collider: &Collider) -> MeshInside {
+    match is_closed_mesh(collider) {
+        true => MeshInside::Closed,
+        false => MeshInside::None,
+    }
+}
+
 /// Whether `collider` is a triangle mesh with pseudo-normals (`TrimeshFlags::ORIENTED`) whose
 /// every edge is shared by exactly two triangles (by vertex index: merge duplicate vertices):
-/// closed, so that it has an inside (see `avian/hollow.rs`). Allocates: run once per shape
-/// (`closed_mesh`).
+/// closed, so that it has an inside (see `avian/hollow.rs`).
 fn is_closed_mesh(collider: &Collider) -> bool {
     let Some(mesh) = collider.shape_scaled().as_trimesh() else {
         return false;

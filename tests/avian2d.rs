@@ -1755,6 +1755,58 @@ fn a_particle_inside_a_shape_made_of_parts_leaves_it_by_its_outside() {
 }
 
 #[test]
+fn a_particle_inside_a_triangle_mesh_leaves_it_by_its_outline() {
+    // A disc of 32 triangles fanned from its centre, its vertices shared or each triangle's its
+    // own: the way out of a point in one of them is the nearest point of the disc's outline —
+    // exactly, also where that lies along none of the directions rays are cast in (`avian/
+    // parts.rs`): a particle (radius 5 cm) put halfway out at 10° leaves straight outwards.
+    let sides = 32;
+    let rim: Vec<Vec2> = (0..sides)
+        .map(|k| Vec2::from_angle(k as f32 * std::f32::consts::TAU / sides as f32))
+        .collect();
+    let fan: Vec<[u32; 3]> = (0..sides as u32)
+        .map(|k| [0, 1 + k, 1 + (k + 1) % sides as u32])
+        .collect();
+    let shared = Collider::trimesh([vec![Vec2::ZERO], rim.clone()].concat(), fan.clone());
+    let own = Collider::trimesh(
+        fan.iter()
+            .flat_map(|t| {
+                t.map(|i| {
+                    if i == 0 {
+                        Vec2::ZERO
+                    } else {
+                        rim[i as usize - 1]
+                    }
+                })
+            })
+            .collect(),
+        (0..sides as u32)
+            .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+            .collect(),
+    );
+    let start = Vec2::from_angle(10f32.to_radians()) * 0.5;
+    // (The outline's nearest point: on the edge from 0° to 11.25°.)
+    let (a, b) = (rim[0], rim[1]);
+    let along = ((start - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+    let nearest = a + (b - a) * along;
+    let expected = nearest + (nearest - start).normalize() * 0.05;
+    for (name, disc) in [("shared vertices", shared), ("each triangle its own", own)] {
+        let mut app = app(Vec2::ZERO);
+        spawn(&mut app, (RigidBody::Static, disc));
+        let p = spawn(&mut app, Particle::new(start.extend(0.0)).with_radius(0.05));
+        step(&mut app, 2);
+        let end = particle(&app, p).position.truncate();
+        println!(
+            "a disc of triangles, {name}: a particle at {start} ends at {end}, the outline's nearest point + radius {expected}"
+        );
+        assert!(
+            (end - expected).length() < 1e-4,
+            "{name}: at {end}, not {expected}"
+        );
+    }
+}
+
+#[test]
 fn particles_inside_a_compound_all_come_out() {
     // An L of two overlapping boxes and a bar across it at 30° (a compound of three parts; the
     // bar's sides are not along the exit directions tried): 200 particles put inside it at

@@ -115,12 +115,12 @@ pub struct AvianCouplingStats {
     pub later_exchanges: usize,
 }
 
-/// avian's `Collider`, as the core's [`ContactShape`]; `closed`: a closed triangle mesh with
-/// pseudo-normals, which has an inside (see `avian/hollow.rs`).
+/// avian's `Collider`, as the core's [`ContactShape`]; `inside`: what gives a triangle mesh an
+/// inside (see `avian/hollow.rs`).
 #[derive(Clone)]
 struct AvianShape {
     collider: Collider,
-    closed: bool,
+    inside: MeshInside,
 }
 
 impl ContactShape for AvianShape {
@@ -183,9 +183,9 @@ struct Coupled {
     /// Per gathered collider: spawned, moved or reshaped since the last step (it wakes the
     /// sleeping islands it touches, as a moving body's colliders do).
     placed_anew: Vec<bool>,
-    /// Whether each triangle mesh shape (by its `Arc`, a clone kept while anything else holds
-    /// it) is closed, with pseudo-normals (see `avian/hollow.rs`).
-    closed_meshes: ClosedMeshes,
+    /// What gives each triangle mesh shape an inside (by its `Arc`, a clone kept while anything
+    /// else holds it; see `avian/hollow.rs`).
+    mesh_insides: MeshInsides,
     /// Per gathered collider: its bounds grown by its body's motion over the step and its margin.
     swept: Vec<(DVec3, DVec3)>,
     /// The pose and bounds of each collider gathered in the last step, and in this one.
@@ -341,10 +341,10 @@ impl Coupled {
         self.collider_poses.swap(0, 1);
         self.collider_poses[1].clear();
         // (Shapes nothing else holds any more.)
-        let alive = |_: &usize, (shape, _): &mut (SharedShape, bool)| {
+        let alive = |_: &usize, (shape, _): &mut (SharedShape, MeshInside)| {
             std::sync::Arc::strong_count(&shape.0) > 1
         };
-        self.closed_meshes.retain(alive);
+        self.mesh_insides.retain(alive);
     }
 
     /// The index of `entity`'s proxy, adding it if it is an avian rigid body.
@@ -453,8 +453,8 @@ fn gather_colliders(
             .and_then(|of| coupled.add_body(world, of.body))
             .unwrap_or_else(|| coupled.add_static(pose));
         let body_pose = coupled.external.bodies[index as usize].pose();
-        // (Checked once per triangle mesh shape.)
-        let closed = closed_mesh(&mut coupled.closed_meshes, &collider);
+        // (Found once per triangle mesh shape.)
+        let inside = mesh_inside(&mut coupled.mesh_insides, &collider);
         let [last, now] = &mut coupled.collider_poses;
         let placed = (pose, *aabb);
         let same = last.get(&entity).is_some_and(|(p, b)| {
@@ -466,7 +466,7 @@ fn gather_colliders(
         coupled.external.colliders.push(ExternalCollider {
             shape: AvianShape {
                 collider: Collider::clone(&collider),
-                closed,
+                inside,
             },
             body: index,
             local: body_pose.relative(pose),

@@ -16,7 +16,10 @@
 // top of two boxes side by side); through a flat side elsewhere at most 2 % (2D) or 13 % (3D)
 // farther, no direction being more than 11.25° (2D) or 27.5° (3D) from a fixed one; more
 // near an inner corner, where the ray nearest the corner's direction may pass it. The contact
-// then pushes the particle out along the surface's normal in the next substep. A point in no
+// then pushes the particle out along the surface's normal in the next substep. A 2D triangle
+// mesh needs no rays: its outline — the edges of one triangle only, found once per shape
+// (`inside_of_mesh`, `MeshInside::Outline`) — holds its outside, and a point in one of its
+// triangles leaves by the outline's nearest point, exactly (`project_on_outline`). A point in no
 // part is left to parry's projection, which is right there (the nearest boundary point of any
 // part is on the outside when the point is in none); it costs one more look-up of the parts
 // whose bounds hold it, a point inside a part a few more, and rays only next to a boundary
@@ -74,6 +77,18 @@ fn nudge(parts: &dyn CompositeShape, part: u32, local: Vector) -> f32 {
         .filter(|size| size.is_finite())
         .unwrap_or(0.0);
     1e-5 * (size + local.abs().max_element())
+}
+
+/// For `local` (in the shape's frame) in a triangle of a 2D triangle mesh whose `outline` (the
+/// edges of one triangle only) is known: the nearest point of the outline — the mesh's nearest
+/// outside point — and `true`; `None` for a point in no triangle (left to parry's projection).
+fn project_on_outline(
+    shape: &parry::shape::SharedShape,
+    outline: &parry::shape::Polyline,
+    local: Vector,
+) -> Option<(Vector, bool)> {
+    part_holding(solid_parts(shape)?, local, None)?;
+    Some((outline.project_local_point(local, false).point, true))
 }
 
 /// Where a ray from `origin` inside part `part` along unit `direction` comes out of the shape:
