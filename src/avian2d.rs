@@ -66,8 +66,8 @@ fn keep_depth(surface: DVec3, point: DVec3) -> DVec3 {
 }
 
 /// What gives `collider`, a triangle mesh, an inside: its outline — the edges of one triangle
-/// only, its vertices merged where they are at the same place — or nothing for a mesh without
-/// one (see `avian/parts.rs`). Allocates: run once per shape (`mesh_inside`).
+/// only, its vertices merged where they are at exactly the same place — or nothing for a mesh
+/// without one (see `avian/parts.rs`). Allocates: run once per shape (`mesh_inside`).
 fn inside_of_mesh(collider: &Collider) -> MeshInside {
     let Some(mesh) = collider.shape_scaled().as_trimesh() else {
         return MeshInside::None;
@@ -76,14 +76,16 @@ fn inside_of_mesh(collider: &Collider) -> MeshInside {
     let mut first_at = std::collections::HashMap::new();
     let same: Vec<u32> = (0..vertices.len() as u32)
         .map(|i| {
-            let at = vertices[i as usize].to_array().map(f32::to_bits);
+            // (`+ 0.0`: −0.0 and 0.0 are the same place.)
+            let at = vertices[i as usize].to_array().map(|x| (x + 0.0).to_bits());
             *first_at.entry(at).or_insert(i)
         })
         .collect();
+    // (A triangle whose corners merged into fewer than three has no edges.)
     let mut edges: Vec<[u32; 2]> = (mesh.indices().iter())
-        .flat_map(|&[a, b, c]| [[a, b], [b, c], [c, a]])
-        .map(|ends| ends.map(|i| same[i as usize]))
-        .filter(|[a, b]| a != b)
+        .map(|corners| corners.map(|i| same[i as usize]))
+        .filter(|[a, b, c]| a != b && b != c && c != a)
+        .flat_map(|[a, b, c]| [[a, b], [b, c], [c, a]])
         .map(|[a, b]| [a.min(b), a.max(b)])
         .collect();
     edges.sort_unstable();

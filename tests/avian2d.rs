@@ -1804,6 +1804,35 @@ fn a_particle_inside_a_triangle_mesh_leaves_it_by_its_outline() {
             "{name}: at {end}, not {expected}"
         );
     }
+    // A T-junction: one triangle over two, their shared side split at (1, 0) below and whole
+    // above — each piece of it is one triangle's edge only, but inside the mesh. A particle 5 cm
+    // over it leaves through the upper triangle's left side (along 135°, one of the rays'
+    // directions), not across the junction into the lower triangles.
+    let t_junction = Collider::trimesh(
+        vec![
+            Vec2::new(0.0, 0.0),
+            Vec2::new(2.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, -1.0),
+        ],
+        vec![[0, 1, 2], [0, 3, 4], [3, 1, 4]],
+    );
+    let mut app = app(Vec2::ZERO);
+    spawn(&mut app, (RigidBody::Static, t_junction));
+    let start = Vec2::new(0.9, 0.05);
+    let p = spawn(&mut app, Particle::new(start.extend(0.0)).with_radius(0.05));
+    step(&mut app, 2);
+    let end = particle(&app, p).position.truncate();
+    let nearest = Vec2::splat((start.x + start.y) / 2.0);
+    let expected = nearest + Vec2::new(-1.0, 1.0).normalize() * 0.05;
+    println!(
+        "a T-junction: a particle at {start} ends at {end}, the nearest outside point + radius {expected}"
+    );
+    assert!(
+        (end - expected).length() < 1e-4,
+        "T-junction: at {end}, not {expected}"
+    );
 }
 
 #[test]
@@ -1842,11 +1871,12 @@ fn particles_inside_a_compound_all_come_out() {
     step(&mut app, 2);
     let out = nearest(&app);
     // (Where the bar meets the L at 30°, a particle pushed off one side lands within its radius
-    // of the other, which pushes it back: it takes a few more substeps to settle there.)
-    step(&mut app, 4);
+    // of the other, which pushes it back: it takes more substeps to settle there — 0.04990 m
+    // after 6 steps, 0.05000 after 18.)
+    step(&mut app, 16);
     let settled = nearest(&app);
     println!(
-        "200 particles put inside an L and a bar: nearest centre {out:.5} m off it after 2 steps, {settled:.5} after 6"
+        "200 particles put inside an L and a bar: nearest centre {out:.5} m off it after 2 steps, {settled:.5} after 18"
     );
     assert!(out > 0.0, "a particle is {} m inside the L", -out);
     assert!(settled > 0.05 - 1e-4, "a particle is {settled} m off the L");

@@ -17,9 +17,11 @@
 // farther, no direction being more than 11.25° (2D) or 27.5° (3D) from a fixed one; more
 // near an inner corner, where the ray nearest the corner's direction may pass it. The contact
 // then pushes the particle out along the surface's normal in the next substep. A 2D triangle
-// mesh needs no rays: its outline — the edges of one triangle only, found once per shape
-// (`inside_of_mesh`, `MeshInside::Outline`) — holds its outside, and a point in one of its
-// triangles leaves by the outline's nearest point, exactly (`project_on_outline`). A point in no
+// mesh needs no rays where its triangles meet edge to edge: its outline — the edges of one
+// triangle only, found once per shape (`inside_of_mesh`, `MeshInside::Outline`) — is then its
+// outside, and a point in one of its triangles leaves by the outline's nearest point, exactly
+// (`project_on_outline`); where a triangle lies just beyond that point (a T-junction,
+// overlapping triangles), by the rays. A point in no
 // part is left to parry's projection, which is right there (the nearest boundary point of any
 // part is on the outside when the point is in none); it costs one more look-up of the parts
 // whose bounds hold it, a point inside a part a few more, and rays only next to a boundary
@@ -81,14 +83,23 @@ fn nudge(parts: &dyn CompositeShape, part: u32, local: Vector) -> f32 {
 
 /// For `local` (in the shape's frame) in a triangle of a 2D triangle mesh whose `outline` (the
 /// edges of one triangle only) is known: the nearest point of the outline — the mesh's nearest
-/// outside point — and `true`; `None` for a point in no triangle (left to parry's projection).
+/// outside point where its triangles meet edge to edge — and `true`; where a triangle lies just
+/// beyond that point (a T-junction, triangles overlapping), the rays' way out
+/// ([`project_out_of_parts`]); `None` for a point in no triangle (left to parry's projection).
 fn project_on_outline(
     shape: &parry::shape::SharedShape,
     outline: &parry::shape::Polyline,
     local: Vector,
 ) -> Option<(Vector, bool)> {
-    part_holding(solid_parts(shape)?, local, None)?;
-    Some((outline.project_local_point(local, false).point, true))
+    let parts = solid_parts(shape)?;
+    let holder = part_holding(parts, local, None)?;
+    let nearest = outline.project_local_point(local, false).point;
+    let (outward, nudge) = (nearest - local, nudge(parts, holder, local));
+    let depth = outward.length();
+    if depth <= nudge || part_holding(parts, nearest + outward * (nudge / depth), None).is_none() {
+        return Some((nearest, true));
+    }
+    project_out_of_parts(shape, local)
 }
 
 /// Where a ray from `origin` inside part `part` along unit `direction` comes out of the shape:

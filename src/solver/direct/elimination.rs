@@ -28,7 +28,8 @@ impl LineSolve<'_, '_> {
         predicted: f64,
         fused: bool,
     ) -> (u32, bool) {
-        let mut system = LinePasses { solve: self, line };
+        // SAFETY: this function's contract is `LinePasses::new`'s.
+        let mut system = unsafe { LinePasses::new(self, line) };
         newton_passes(&mut system, budget, contraction, predicted, fused)
     }
 
@@ -284,17 +285,27 @@ pub(crate) fn line_residual(
     error / rest.max(1e-12)
 }
 
-/// A line's system as [`newton_passes`] drives it. Made only in [`LineSolve::newton`], under
-/// its contract: the task alone holds the line, whose indices passed [`LineSolve::check`].
+/// A line's system as [`newton_passes`] drives it (made by [`LinePasses::new`] only).
 struct LinePasses<'s, 'a, 'v> {
     solve: &'s LineSolve<'a, 'v>,
     line: &'s LineRef<'s>,
 }
 
+impl<'s, 'a, 'v> LinePasses<'s, 'a, 'v> {
+    /// `line`'s system in `solve`.
+    ///
+    /// # Safety
+    /// As for [`LineSolve::newton`], for as long as it lives: this task alone holds the line,
+    /// whose indices passed [`LineSolve::check`]. Its (safe) methods rely on it.
+    unsafe fn new(solve: &'s LineSolve<'a, 'v>, line: &'s LineRef<'s>) -> Self {
+        Self { solve, line }
+    }
+}
+
 impl NewtonSystem for LinePasses<'_, '_, '_> {
     #[inline(always)]
     fn residual(&mut self) -> f64 {
-        // SAFETY: `LineSolve::newton`'s contract, under which this was made.
+        // SAFETY: the contract of `LinePasses::new`, which made this.
         unsafe { self.solve.residual(self.line) }
     }
 

@@ -25,12 +25,8 @@ impl TreeSolve<'_, '_> {
         contraction: f64,
         predicted: f64,
     ) -> (u32, bool) {
-        let mut system = TreePasses {
-            solve: self,
-            view,
-            nodes,
-            closings,
-        };
+        // SAFETY: this function's contract is `TreePasses::new`'s.
+        let mut system = unsafe { TreePasses::new(self, view, (nodes, closings)) };
         newton_passes(&mut system, budget, contraction, predicted, false)
     }
 
@@ -333,8 +329,7 @@ impl TreeSolve<'_, '_> {
     }
 }
 
-/// A tree's system as [`newton_passes`] drives it. Made only in [`TreeSolve::newton`], under
-/// its contract (that of [`TreeSolve::solve`]).
+/// A tree's system as [`newton_passes`] drives it (made by [`TreePasses::new`] only).
 struct TreePasses<'s, 'a, 'v> {
     solve: &'s TreeSolve<'a, 'v>,
     view: &'s TreeView<'s>,
@@ -342,10 +337,29 @@ struct TreePasses<'s, 'a, 'v> {
     closings: &'s mut [Closing],
 }
 
+impl<'s, 'a, 'v> TreePasses<'s, 'a, 'v> {
+    /// The system of the tree `view` in `solve`, with its scratch.
+    ///
+    /// # Safety
+    /// As for [`TreeSolve::solve`], for as long as it lives. Its (safe) methods rely on it.
+    unsafe fn new(
+        solve: &'s TreeSolve<'a, 'v>,
+        view: &'s TreeView<'s>,
+        (nodes, closings): (&'s mut [Node], &'s mut [Closing]),
+    ) -> Self {
+        Self {
+            solve,
+            view,
+            nodes,
+            closings,
+        }
+    }
+}
+
 impl NewtonSystem for TreePasses<'_, '_, '_> {
     #[inline(always)]
     fn residual(&mut self) -> f64 {
-        // SAFETY: `TreeSolve::newton`'s contract, under which this was made.
+        // SAFETY: the contract of `TreePasses::new`, which made this.
         unsafe { self.solve.residual(self.view) }
     }
 
