@@ -531,17 +531,14 @@ fn collision_layers_on_a_composite_let_a_rope_pass() {
     // an identical rope without layers lands on it.
     let mut app = app(Vec2::new(0.0, -9.81));
     spawn(&mut app, (RigidBody::Static, Collider::rectangle(4.0, 0.2)));
-    let (ghost, solid) = {
-        let world = app.world_mut();
-        let ghost = RopeBuilder::new(Vec3::new(-1.5, 1.0, 0.0), Vec3::new(-0.5, 1.0, 0.0), 5)
-            .radius(0.02)
-            .spawn(&mut world.commands());
-        let solid = RopeBuilder::new(Vec3::new(0.5, 1.0, 0.0), Vec3::new(1.5, 1.0, 0.0), 5)
-            .radius(0.02)
-            .spawn(&mut world.commands());
-        world.flush();
-        (ghost, solid)
-    };
+    let ghost = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::new(-1.5, 1.0, 0.0), Vec3::new(-0.5, 1.0, 0.0), 5).radius(0.02),
+    );
+    let solid = spawn_rope(
+        &mut app,
+        RopeBuilder::new(Vec3::new(0.5, 1.0, 0.0), Vec3::new(1.5, 1.0, 0.0), 5).radius(0.02),
+    );
     app.world_mut()
         .entity_mut(ghost.root)
         .insert(CollisionLayers::new(LayerMask(0b10), LayerMask(0b10)));
@@ -1035,13 +1032,9 @@ fn a_collider_spawned_moved_or_reshaped_into_a_sleeping_rope_wakes_it() {
     // spawned into a second sleeping rope, and one beside a third grown into it, wake theirs.
     let mut app = app(Vec2::new(0.0, -9.81));
     let rope_at = |app: &mut App, x: f32| {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(Vec3::new(x, 1.0, 0.0), Vec3::new(x, 0.5, 0.0), 5)
-            .radius(0.02)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
-        rope.particles[5]
+        let from = Vec3::new(x, 1.0, 0.0);
+        let rope = RopeBuilder::new(from, Vec3::new(x, 0.5, 0.0), 5).radius(0.02);
+        spawn_rope(app, rope.pin_start()).particles[5]
     };
     let (moved_into, spawned_into) = (rope_at(&mut app, 0.0), rope_at(&mut app, 2.0));
     let grown_into = rope_at(&mut app, 4.0);
@@ -1399,15 +1392,11 @@ fn plank_on_ropes(
     );
     let (mut ends, mut particles) = (Vec::new(), Vec::new());
     for &(top, side) in tops {
-        let world = app.world_mut();
         let end = centre + Vec3::X * side;
-        let rope = RopeBuilder::new(top, end, hung.links)
-            .mass(0.01)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
+        let rope = RopeBuilder::new(top, end, hung.links).mass(0.01);
+        let rope = spawn_rope(app, rope.pin_start());
         let last = *rope.particles.last().unwrap();
-        let mut knot = world.entity_mut(last);
+        let mut knot = app.world_mut().entity_mut(last);
         knot.insert(BodyAttachment::new(plank, Vec2::new(side, 0.0)));
         if let Some(mass) = hung.knot {
             let mut particle = knot.get_mut::<Particle>().unwrap();
@@ -1592,12 +1581,8 @@ fn bar_through_particle(bar: Collider, start: f32, setting: BarSetting) -> (f32,
                 let at = Transform::from_xyz(20.0 + k as f32, 20.0, 0.0);
                 spawn(&mut app, (RigidBody::Static, Collider::circle(0.45), at));
             }
-            let world = app.world_mut();
             let (from, to) = (Vec3::new(19.5, 20.46, 0.0), Vec3::new(27.5, 20.46, 0.0));
-            RopeBuilder::new(from, to, 16)
-                .radius(0.01)
-                .spawn(&mut world.commands());
-            world.flush();
+            spawn_rope(&mut app, RopeBuilder::new(from, to, 16).radius(0.01));
         }
         BarSetting::FewerSubsteps => {
             app.world_mut()

@@ -672,14 +672,10 @@ fn a_spun_box_kicked_on_three_ropes_gains_no_energy() {
     ];
     let mut particles = Vec::new();
     for (top, anchor) in ropes {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(top, centre + anchor, 8)
-            .mass(0.01)
-            .pin_start()
-            .spawn(&mut world.commands());
-        world.flush();
+        let rope = RopeBuilder::new(top, centre + anchor, 8).mass(0.01);
+        let rope = spawn_rope(&mut app, rope.pin_start());
         let knot = *rope.particles.last().unwrap();
-        let mut knot = world.entity_mut(knot);
+        let mut knot = app.world_mut().entity_mut(knot);
         knot.insert(BodyAttachment::new(plank, anchor));
         let mut particle = knot.get_mut::<Particle>().unwrap();
         *particle = particle.clone().with_mass(0.06800844);
@@ -727,17 +723,13 @@ fn a_spinning_box_with_a_rope_on_its_corner_keeps_the_angular_momentum() {
         ))
         .id();
     let corner = Vec3::new(0.45, 0.02, 0.15);
-    let rope = {
-        let world = app.world_mut();
-        let rope = RopeBuilder::new(corner, corner + Vec3::X * 2.0, 8)
-            .mass(0.001)
-            .spawn(&mut world.commands());
-        world.flush();
-        world
-            .entity_mut(rope.particles[0])
-            .insert(BodyAttachment::new(box_body, corner));
-        rope
-    };
+    let rope = spawn_rope(
+        &mut app,
+        RopeBuilder::new(corner, corner + Vec3::X * 2.0, 8).mass(0.001),
+    );
+    app.world_mut()
+        .entity_mut(rope.particles[0])
+        .insert(BodyAttachment::new(box_body, corner));
     let momentum = |app: &App| {
         let world = app.world();
         let rotation = world.get::<Rotation>(box_body).unwrap().0.as_dquat();
