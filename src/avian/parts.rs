@@ -21,11 +21,10 @@
 // triangle only, found once per shape (`inside_of_mesh`, `MeshInside::Outline`) — is then its
 // outside, and a point in one of its triangles leaves by the outline's nearest point, exactly
 // (`project_on_outline`); where a triangle lies just beyond that point (a T-junction,
-// overlapping triangles), by the rays. A point in no
-// part is left to parry's projection, which is right there (the nearest boundary point of any
-// part is on the outside when the point is in none); it costs one more look-up of the parts
-// whose bounds hold it, a point inside a part a few more, and rays only next to a boundary
-// between parts.
+// overlapping triangles), by the rays. A point in no part is left to parry's projection, which
+// is right there (the nearest boundary point of any part is on the outside when the point is in
+// none); it costs one more look-up of the parts whose bounds hold it, a point inside a part a
+// few more, and rays only next to a boundary between parts.
 
 use parry::query::Ray;
 use parry::shape::{CompositeShape, TypedCompositeShape};
