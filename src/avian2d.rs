@@ -100,8 +100,8 @@ fn inside_of_mesh(collider: &Collider) -> MeshInside {
     MeshInside::Outline(std::sync::Arc::new(outline))
 }
 
-/// `None`: a 2D triangle mesh's triangles are solid already, and parry reports their inside
-/// (see `avian/hollow.rs`).
+/// `None`: a 2D triangle mesh has no pseudo-normals to ask; its inside is its triangles' and its
+/// way out its outline (`inside_of_mesh`, see `avian/parts.rs`).
 fn oriented_mesh_projection(_: &parry::shape::SharedShape, _: Vec2) -> Option<(Vec2, bool)> {
     None
 }

@@ -14,14 +14,16 @@
 // the shape (`ray_exit`; at most `EXIT_PARTS` parts), and the nearest of those exits is the
 // way out. That is the nearest outside point where a ray reaches it (straight up through the
 // top of two boxes side by side); through a flat side elsewhere at most 2 % (2D) or 13 % (3D)
-// farther, no direction being more than 11.25° (2D) or 27.5° (3D) from a fixed one; more
+// farther, no direction being more than 11.25° (2D) or 27.6° (3D) from a fixed one; more
 // near an inner corner, where the ray nearest the corner's direction may pass it. The contact
 // then pushes the particle out along the surface's normal in the next substep. A 2D triangle
 // mesh needs no rays where its triangles meet edge to edge: its outline — the edges of one
 // triangle only, found once per shape (`inside_of_mesh`, `MeshInside::Outline`) — is then its
 // outside, and a point in one of its triangles leaves by the outline's nearest point, exactly
 // (`project_on_outline`); where a triangle lies just beyond that point (a T-junction,
-// overlapping triangles), by the rays. A point in no part is left to parry's projection, which
+// overlapping triangles), by the rays. (Triangles that overlap along a shared side — a
+// duplicated triangle, a folded mesh — drop that side from the outline: a particle there
+// leaves by a farther side.) A point in no part is left to parry's projection, which
 // is right there (the nearest boundary point of any part is on the outside when the point is in
 // none); it costs one more look-up of the parts whose bounds hold it, a point inside a part a
 // few more, and rays only next to a boundary between parts.
@@ -34,8 +36,8 @@ use parry::shape::{CompositeShape, TypedCompositeShape};
 const EXIT_PARTS: usize = 64;
 
 /// For `local` (in the shape's frame) inside a part of a shape made of solid parts (see
-/// `solid_parts`): its way out (see the top of this file), and `true`; `None` for other shapes,
-/// for a point in no part, and where no ray comes out.
+/// `solid_parts`): its way out (see the top of this file), and `true`; `None` for other shapes
+/// and for a point in no part.
 fn project_out_of_parts(shape: &parry::shape::SharedShape, local: Vector) -> Option<(Vector, bool)> {
     let parts = solid_parts(shape)?;
     let holder = part_holding(parts, local, None)?;
@@ -46,23 +48,36 @@ fn project_out_of_parts(shape: &parry::shape::SharedShape, local: Vector) -> Opt
         .map(|nearest| nearest - local)
         .filter(|outward| outward.length() > nudge)
         .map(|outward| outward.normalize());
-    if let Some(nearest) = nearest
-        && part_holding(parts, local, Some(holder)).is_none()
-    {
-        // Held by this part alone: its nearest boundary point is the shape's nearest outside
-        // point if no other part lies beyond it — or if the point is on that boundary (within
-        // rounding: a particle resting there).
-        let beyond = towards_nearest.map(|direction| nearest + direction * nudge);
-        if beyond.is_none_or(|beyond| part_holding(parts, beyond, Some(holder)).is_none()) {
+    if let Some(nearest) = nearest {
+        // The part's nearest boundary point is the shape's nearest outside point if no other
+        // part lies just beyond it (any way out leaves this part first) — or, for a point on
+        // that boundary within rounding (a particle resting there), if no other part holds it.
+        let free = match towards_nearest {
+            Some(direction) => nearest + direction * nudge,
+            None => nearest,
+        };
+        if part_holding(parts, free, Some(holder)).is_none() {
             return Some((nearest, true));
         }
     }
-    towards_nearest
-        .into_iter()
-        .chain(exit_directions())
-        .filter_map(|direction| ray_exit(parts, holder, local, direction, nudge))
-        .min_by(|a, b| (*a - local).length_squared().total_cmp(&(*b - local).length_squared()))
-        .map(|exit| (exit, true))
+    // (No exit can be nearer than the part's own boundary: an exit that near ends the search.)
+    let least = nearest.map_or(0.0, |nearest| (nearest - local).length()) + nudge;
+    let mut best: Option<(f32, Vector)> = None;
+    for direction in towards_nearest.into_iter().chain(exit_directions()) {
+        let Some(exit) = ray_exit(parts, holder, local, direction, nudge) else {
+            continue;
+        };
+        let distance = (exit - local).length();
+        if best.is_none_or(|(shortest, _)| distance < shortest) {
+            best = Some((distance, exit));
+        }
+        if distance <= least {
+            break;
+        }
+    }
+    // (Where no ray comes out, the part's own nearest boundary point: still inside-out, never
+    // parry's answer from another part, which may call the point outside.)
+    best.map(|(_, exit)| exit).or(nearest).map(|exit| (exit, true))
 }
 
 /// A step past a part's boundary, to see which part, if any, lies beyond it: 10⁻⁵ of `local`'s
